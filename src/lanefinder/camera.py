@@ -1,0 +1,270 @@
+"""Camera model: chessboard calibration, lens distortion, and camera files.
+
+A :class:`CameraModel` holds the intrinsic matrix ``K`` (pixels), the OpenCV
+distortion coefficients and the frame size it was made for.  Frames of the same
+aspect ratio at another size are served by :meth:`CameraModel.scaled_to`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import LaneFinderError
+from .io import atomic_write_text, list_images, read_image
+
+# Sizes are (width, height) in pixels throughout.
+Size = tuple[int, int]
+
+_CORNER_FLAGS = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+_SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+_ASPECT_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class CameraModel:
+    """Pinhole camera with OpenCV lens distortion.
+
+    camera_matrix: 3x3 intrinsics K in pixels.  dist_coeffs: (k1, k2, p1, p2, k3, ...).
+    image_size: (width, height) in pixels of the frames K refers to.
+    rms_px: RMS reprojection error of the calibration, if known.
+    """
+
+    camera_matrix: np.ndarray
+    dist_coeffs: np.ndarray
+    image_size: Size
+    rms_px: float | None = None
+    board: tuple[int, int] | None = None
+    views: tuple[ViewReport, ...] = field(default_factory=tuple)
+    source: str = ""
+
+    @property
+    def has_distortion(self) -> bool:
+        return bool(np.any(self.dist_coeffs != 0))
+
+    @classmethod
+    def ideal(cls, image_size: Size, hfov_deg: float = 60.0) -> CameraModel:
+        """A distortion-free camera: for footage with no calibration."""
+        w, h = image_size
+        f = (w / 2) / math.tan(math.radians(hfov_deg) / 2)
+        k = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1]], dtype=np.float64)
+        return cls(k, np.zeros(5), (int(w), int(h)), source="ideal (no distortion model)")
+
+    def scaled_to(self, image_size: Size) -> CameraModel:
+        """The same camera for frames of ``image_size`` (same aspect ratio).
+
+        Raises LaneFinderError when the aspect ratio differs.
+        """
+        w, h = (int(v) for v in image_size)
+        w0, h0 = self.image_size
+        if (w, h) == (w0, h0):
+            return self
+        if abs((w / h) / (w0 / h0) - 1) > _ASPECT_TOLERANCE:
+            raise LaneFinderError(
+                f"frame size {w}x{h} does not match the camera ({w0}x{h0}): the aspect ratio differs, "
+                "so the calibration cannot be scaled; calibrate this camera at this size"
+            )
+        sx, sy = w / w0, h / h0
+        k = self.camera_matrix.copy()
+        # Pixel centres: a pixel index i covers [i, i+1), so centres scale as (c + 0.5) * s - 0.5.
+        k[0, 0] *= sx
+        k[1, 1] *= sy
+        k[0, 2] = (k[0, 2] + 0.5) * sx - 0.5
+        k[1, 2] = (k[1, 2] + 0.5) * sy - 0.5
+        return CameraModel(k, self.dist_coeffs.copy(), (w, h), self.rms_px, self.board, self.views, self.source)
+
+    def undistort(self, image: np.ndarray) -> np.ndarray:
+        """Undistorted copy of ``image`` (same K); for figures, not the per-frame path."""
+        cam = self.scaled_to((image.shape[1], image.shape[0]))
+        return cv2.undistort(image, cam.camera_matrix, cam.dist_coeffs)
+
+    def to_dict(self) -> dict:
+        return {
+            "image_size": list(self.image_size),
+            "camera_matrix": self.camera_matrix.tolist(),
+            "dist_coeffs": self.dist_coeffs.ravel().tolist(),
+            "rms_px": self.rms_px,
+            "board": list(self.board) if self.board else None,
+            "views": [v.to_dict() for v in self.views],
+        }
+
+
+@dataclass(frozen=True)
+class ViewReport:
+    """One calibration photo: what was found and how well it fits."""
+
+    path: str
+    used: bool
+    reason: str = ""
+    pattern: tuple[int, int] | None = None
+    error_px: float | None = None
+
+    def to_dict(self) -> dict:
+        return {
+            "path": self.path,
+            "used": self.used,
+            "reason": self.reason,
+            "pattern": list(self.pattern) if self.pattern else None,
+            "error_px": self.error_px,
+        }
+
+
+def _sub_board_sizes(board: tuple[int, int], min_corners: int = 12) -> list[tuple[int, int]]:
+    """Board sizes to try, largest first: the full board, then sub-boards."""
+    cols, rows = board
+    sizes = [(c, r) for c in range(cols, 2, -1) for r in range(rows, 2, -1) if c * r >= min_corners]
+    return sorted(sizes, key=lambda s: (-s[0] * s[1], -s[0]))
+
+
+def find_board(gray: np.ndarray, board: tuple[int, int]) -> tuple[np.ndarray, tuple[int, int]] | None:
+    """Find the largest visible (sub-)board of inner corners ``board`` = (cols, rows).
+
+    Returns (corners Nx1x2 float32 refined to subpixel, pattern) or None.
+    """
+    for pattern in _sub_board_sizes(board):
+        ok, corners = cv2.findChessboardCorners(gray, pattern, _CORNER_FLAGS)
+        if ok:
+            corners = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), _SUBPIX_CRITERIA)
+            return corners.reshape(-1, 1, 2), pattern
+    return None
+
+
+def board_points(pattern: tuple[int, int], square: float = 1.0) -> np.ndarray:
+    """Object points of a ``pattern`` = (cols, rows) grid on the z=0 plane, Nx3 float32."""
+    cols, rows = pattern
+    grid = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2).astype(np.float32) * square
+    return np.hstack([grid, np.zeros((len(grid), 1), np.float32)])
+
+
+def calibrate(
+    photos: Sequence[str | Path],
+    board: tuple[int, int] = (9, 6),
+    image_size: Size | None = None,
+) -> CameraModel:
+    """Calibrate from chessboard photos.
+
+    Photos whose full board is cut off count through their largest visible sub-board,
+    each with its own object points.  Photos up to 2 px larger than ``image_size``
+    (default: the most common size) are cropped at the right/bottom edge, which keeps
+    the principal point; other sizes are skipped and reported.
+    """
+    if not photos:
+        raise LaneFinderError("no calibration photos given")
+    images = [(str(p), read_image(p)) for p in photos]
+    if image_size is None:
+        sizes = [(im.shape[1], im.shape[0]) for _, im in images]
+        image_size = max(set(sizes), key=lambda s: (sizes.count(s), -s[0]))
+    w, h = image_size
+
+    obj_pts, img_pts, reports, used_idx = [], [], [], []
+    for path, im in images:
+        ih, iw = im.shape[:2]
+        note = ""
+        if (iw, ih) != (w, h):
+            if w <= iw <= w + 2 and h <= ih <= h + 2:
+                im = im[:h, :w]
+                note = f"cropped {iw}x{ih} to {w}x{h}"
+            else:
+                reports.append(ViewReport(path, False, f"size {iw}x{ih} differs from {w}x{h}"))
+                continue
+        gray = cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) if im.ndim == 3 else im
+        found = find_board(gray, board)
+        if found is None:
+            reports.append(ViewReport(path, False, "no chessboard found"))
+            continue
+        corners, pattern = found
+        if pattern != board:
+            note = "; ".join(filter(None, [note, f"partial board {pattern[0]}x{pattern[1]}"]))
+        obj_pts.append(board_points(pattern))
+        img_pts.append(corners)
+        used_idx.append(len(reports))
+        reports.append(ViewReport(path, True, note, pattern))
+
+    if not obj_pts:
+        raise LaneFinderError(f"no {board[0]}x{board[1]} chessboard was found in any of the {len(images)} photos")
+    if len(obj_pts) < 3:
+        raise LaneFinderError(f"only {len(obj_pts)} photo(s) show a chessboard; at least 3 are needed")
+
+    rms, k, dist, rvecs, tvecs = cv2.calibrateCamera(obj_pts, img_pts, (w, h), None, None)
+    for i, (obj, img, rv, tv) in enumerate(zip(obj_pts, img_pts, rvecs, tvecs, strict=True)):
+        proj, _ = cv2.projectPoints(obj, rv, tv, k, dist)
+        err = float(np.sqrt(np.mean(np.sum((proj.reshape(-1, 2) - img.reshape(-1, 2)) ** 2, axis=1))))
+        r = reports[used_idx[i]]
+        reports[used_idx[i]] = ViewReport(r.path, True, r.reason, r.pattern, err)
+    return CameraModel(k, dist.ravel(), (w, h), float(rms), tuple(board), tuple(reports), "calibration")
+
+
+def save_camera(camera: CameraModel, path: str | Path) -> None:
+    """Write the camera as JSON (K, distortion, size, RMS, board, per-view errors)."""
+    atomic_write_text(path, json.dumps(camera.to_dict(), indent=2) + "\n")
+
+
+def load_camera(path: str | Path) -> CameraModel:
+    """Read a camera file: our JSON, or the YAML/XML that OpenCV's calibration sample writes."""
+    p = Path(path)
+    if not p.is_file():
+        raise LaneFinderError(f"camera file not found: {p}")
+    if p.suffix.lower() == ".json":
+        try:
+            d = json.loads(p.read_text())
+            k = np.asarray(d["camera_matrix"], dtype=np.float64).reshape(3, 3)
+            dist = np.asarray(d["dist_coeffs"], dtype=np.float64).ravel()
+            size = tuple(int(v) for v in d["image_size"])
+        except (ValueError, KeyError, TypeError) as e:
+            raise LaneFinderError(f"{p}: not a lanefinder camera file ({e})") from None
+        views = tuple(
+            ViewReport(v["path"], v["used"], v.get("reason", ""), tuple(v["pattern"]) if v.get("pattern") else None,
+                       v.get("error_px"))
+            for v in d.get("views", [])
+        )
+        board = tuple(d["board"]) if d.get("board") else None
+        return CameraModel(k, dist, size, d.get("rms_px"), board, views, str(p))
+    return _load_opencv_storage(p)
+
+
+def _load_opencv_storage(p: Path) -> CameraModel:
+    fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+    try:
+        if not fs.isOpened():
+            raise LaneFinderError(f"{p}: cannot read it as JSON or as OpenCV YAML/XML")
+        k = fs.getNode("camera_matrix").mat()
+        dist = fs.getNode("distortion_coefficients").mat()
+        w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
+        rms_node = fs.getNode("avg_reprojection_error")
+        rms = rms_node.real() if not rms_node.empty() else None
+    finally:
+        fs.release()
+    if k is None or k.shape != (3, 3) or dist is None or not w or not h:
+        raise LaneFinderError(
+            f"{p}: an OpenCV camera file needs camera_matrix, distortion_coefficients, image_width and image_height"
+        )
+    return CameraModel(k.astype(np.float64), dist.astype(np.float64).ravel(), (int(w), int(h)), rms, source=str(p))
+
+
+def calibration_photos(inputs: Iterable[str | Path]) -> list[Path]:
+    """Expand files and folders into a sorted list of image paths."""
+    return list_images(inputs, what="calibration photos")
+
+
+def undistort_points(camera: CameraModel, points: np.ndarray) -> np.ndarray:
+    """Distorted pixel (x, y) -> undistorted pixel (x, y), Nx2, same K."""
+    pts = np.asarray(points, np.float64).reshape(-1, 1, 2)
+    out = cv2.undistortPoints(pts, camera.camera_matrix, camera.dist_coeffs, P=camera.camera_matrix)
+    return out.reshape(-1, 2)
+
+
+def distort_points(camera: CameraModel, points: np.ndarray) -> np.ndarray:
+    """Undistorted pixel (x, y) -> distorted pixel (x, y), Nx2: the exact forward lens model."""
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return pts
+    k = camera.camera_matrix
+    rays = np.column_stack([(pts[:, 0] - k[0, 2]) / k[0, 0], (pts[:, 1] - k[1, 2]) / k[1, 1], np.ones(len(pts))])
+    out, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), k, camera.dist_coeffs)
+    return out.reshape(-1, 2)

@@ -1,0 +1,214 @@
+"""The ``lanefinder`` command: a thin layer over the Python API."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from . import __version__
+from .errors import LaneFinderError
+
+
+def _fail(msg: str) -> None:
+    click.echo(f"lanefinder: error: {msg}", err=True)
+
+
+class _Group(click.Group):
+    """Turns our errors into one line and Ctrl-C into exit 130; never a traceback for bad input."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except LaneFinderError as e:
+            _fail(str(e))
+            sys.exit(2)
+        except KeyboardInterrupt:
+            _fail("interrupted")
+            sys.exit(130)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="lanefinder")
+def main() -> None:
+    """Find the lane on a car's forward camera: calibrate, process images and videos."""
+
+
+def _config(path: str | None):
+    from .config import load_config
+
+    return load_config(path)
+
+
+def _board(text: str) -> tuple[int, int]:
+    try:
+        cols, rows = (int(v) for v in text.lower().split("x"))
+        if cols < 3 or rows < 3:
+            raise ValueError
+    except ValueError:
+        raise LaneFinderError(f"--board takes COLSxROWS of inner corners, like 9x6 (got {text!r})") from None
+    return cols, rows
+
+
+# -- calibrate ---------------------------------------------------------------------------
+@main.command()
+@click.argument("photos", nargs=-1, required=True)
+@click.option("--board", default="9x6", show_default=True, help="Inner corners, COLSxROWS.")
+@click.option("-o", "--output", default="camera.json", show_default=True, help="Camera file to write (JSON).")
+def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
+    """Calibrate the camera from chessboard PHOTOS (files or folders)."""
+    from .camera import calibrate as run
+    from .camera import calibration_photos, save_camera
+    from .io import check_not_input
+
+    paths = calibration_photos(photos)
+    check_not_input(output, paths)
+    t0 = time.perf_counter()
+    cam = run(paths, _board(board))
+    click.echo(f"{'photo':<24} {'used':<5} {'board':<6} {'error px':>8}  note")
+    for v in cam.views:
+        pattern = f"{v.pattern[0]}x{v.pattern[1]}" if v.pattern else "-"
+        err = f"{v.error_px:.3f}" if v.error_px is not None else "-"
+        click.echo(f"{Path(v.path).name:<24} {'yes' if v.used else 'no':<5} {pattern:<6} {err:>8}  {v.reason}")
+    used = sum(v.used for v in cam.views)
+    k = cam.camera_matrix
+    click.echo(f"\nused {used} of {len(cam.views)} photos in {time.perf_counter() - t0:.1f} s; "
+               f"image size {cam.image_size[0]}x{cam.image_size[1]}")
+    click.echo(f"RMS reprojection error: {cam.rms_px:.3f} px")
+    click.echo(f"fx={k[0, 0]:.1f} fy={k[1, 1]:.1f} cx={k[0, 2]:.1f} cy={k[1, 2]:.1f}  "
+               f"dist={', '.join(f'{d:.4f}' for d in cam.dist_coeffs)}")
+    save_camera(cam, output)
+    click.echo(f"wrote {output}")
+
+
+# -- config ------------------------------------------------------------------------------
+@main.command("config")
+@click.option("--default", "default", is_flag=True, help="Print the full default configuration.")
+@click.option("--check", "check", type=click.Path(), help="Validate a config file and print it in full.")
+@click.option("--format", "fmt", type=click.Choice(["toml", "yaml", "json"]), default="toml", show_default=True)
+@click.option("-o", "--output", type=click.Path(), help="Write to this file instead of standard output.")
+def config_cmd(default: bool, check: str | None, fmt: str, output: str | None) -> None:
+    """Print (or check) the configuration that -c takes."""
+    from .config import Config, dump_config, load_config
+    from .io import atomic_write_text
+
+    if not default and not check:
+        raise LaneFinderError("say --default to print the defaults, or --check FILE to validate a config")
+    text = dump_config(load_config(check) if check else Config(), fmt)  # type: ignore[arg-type]
+    if output:
+        atomic_write_text(output, text)
+        click.echo(f"wrote {output}", err=True)
+    else:
+        click.echo(text, nl=False)
+
+
+# -- image -------------------------------------------------------------------------------
+@main.command()
+@click.argument("images", nargs=-1, required=True)
+@click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
+@click.option("-o", "--outdir", required=True, type=click.Path(), help="Folder for the annotated images.")
+@click.option("--stages", "stages_dir", type=click.Path(), help="Also write the intermediate images here.")
+def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_dir: str | None) -> None:
+    """Find the lane in single IMAGES (files or folders) and write annotated copies."""
+    from .io import atomic_write_text, check_not_input, list_images, read_image, write_image
+    from .pipeline import LaneFinder
+    from .render import annotate
+    from .stages import write_stages
+
+    cfg = _config(config_path)
+    paths = list_images(images)
+    finder = LaneFinder(cfg)
+    out = Path(outdir)
+    rows, failures = [], 0
+    click.echo(f"{'image':<22} {'left':<5} {'right':<5} {'radius m':>9} {'offset m':>9} {'width m':>8} {'ms':>6}")
+    for p in paths:
+        dest = out / f"{p.stem}.jpg"
+        try:
+            check_not_input(dest, paths)
+            frame = read_image(p)
+            finder.reset()
+            t0 = time.perf_counter()
+            result = finder.process(frame)
+            ms = (time.perf_counter() - t0) * 1000
+            be = finder.birdseye((frame.shape[1], frame.shape[0]))
+            write_image(dest, annotate(frame, result, be, cfg.render))
+            if stages_dir:
+                write_stages(Path(stages_dir), p.stem, frame, finder)
+        except LaneFinderError as e:
+            _fail(str(e))
+            failures += 1
+            continue
+        lr = "yes" if result.left_found else ("infer" if result.left_inferred else "no")
+        rr = "yes" if result.right_found else ("infer" if result.right_inferred else "no")
+        click.echo(f"{p.name:<22} {lr:<5} {rr:<5} {result.radius_m:>9.0f} {result.offset_m:>9.3f} "
+                   f"{result.width_m:>8.3f} {ms:>6.1f}")
+        rows.append({"image": str(p), "output": str(dest), "left_found": result.left_found,
+                     "right_found": result.right_found, "radius_m": _num(result.radius_m),
+                     "curvature_per_m": _num(result.curvature_per_m), "offset_m": _num(result.offset_m),
+                     "width_m": _num(result.width_m), "ms": round(ms, 2)})
+    if rows:
+        atomic_write_text(out / "results.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
+        click.echo(f"wrote {len(rows)} image(s) and results.jsonl to {out}")
+    if failures:
+        sys.exit(1)
+
+
+# -- video -------------------------------------------------------------------------------
+@main.command()
+@click.argument("src", type=click.Path())
+@click.option("-o", "--output", required=True, type=click.Path(), help="Annotated video to write (.mp4, H.264).")
+@click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
+@click.option("--start", "start_s", type=float, default=0.0, show_default=True, help="Start, seconds.")
+@click.option("--end", "end_s", type=float, default=None, help="End, seconds (default: the end).")
+@click.option("--telemetry", type=click.Path(), help="Per-frame numbers, .csv or .jsonl.")
+@click.option("--debug", is_flag=True, help="Picture-in-picture of the bird's-eye search in every frame.")
+@click.option("--contact-sheet", "sheet", type=click.Path(), help="Write a PNG grid of frames spread over the run.")
+@click.option("--preset", type=click.Choice(["ultrafast", "superfast", "veryfast", "faster", "fast", "medium"]),
+              help="x264 preset (default from config: veryfast).")
+@click.option("--crf", type=click.IntRange(0, 51), help="x264 quality, lower is better (default from config: 23).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def video(src: str, output: str, config_path: str | None, start_s: float, end_s: float | None,
+          telemetry: str | None, debug: bool, sheet: str | None, preset: str | None, crf: int | None,
+          quiet: bool) -> None:
+    """Find the lane in every frame of the video SRC; write an annotated H.264 MP4."""
+    from .videojob import process_video
+
+    cfg = _config(config_path)
+    if preset or crf is not None:
+        v = cfg.video.model_copy(update={k: val for k, val in (("preset", preset), ("crf", crf)) if val is not None})
+        cfg = cfg.model_copy(update={"video": v})
+    if Path(output).suffix.lower() != ".mp4":
+        raise LaneFinderError(f"the output must be an .mp4 file: {output}")
+    summary = process_video(src, output, cfg, start_s, end_s, telemetry, debug, sheet, progress=not quiet)
+    for line in summary.lines():
+        click.echo(line)
+    if sheet:
+        click.echo(f"contact sheet: {sheet}")
+    if summary.interrupted:
+        sys.exit(130)
+
+
+# -- plot --------------------------------------------------------------------------------
+@main.command()
+@click.argument("telemetry", type=click.Path())
+@click.option("-o", "--output", required=True, type=click.Path(), help="Plot image to write (.png).")
+def plot(telemetry: str, output: str) -> None:
+    """Plot radius, offset, width and confidence over time from a TELEMETRY file."""
+    from .io import check_not_input
+    from .plot import plot_telemetry
+    from .telemetry import read_telemetry
+
+    check_not_input(output, [telemetry])
+    plot_telemetry(read_telemetry(telemetry), output)
+    click.echo(f"wrote {output}")
+
+
+def _num(v: float) -> float | None:
+    return None if v != v else round(float(v), 6)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

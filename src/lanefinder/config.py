@@ -1,0 +1,253 @@
+"""The one validated configuration: every tunable of the pipeline lives here.
+
+Save it with ``lanefinder config --default > my.toml``, edit it, pass it back with
+``-c my.toml``.  TOML, YAML and JSON are read; unknown keys and bad values are
+errors that name the key.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .errors import LaneFinderError
+
+Point = tuple[float, float]
+PositiveInt = Annotated[int, Field(gt=0)]
+PositiveFloat = Annotated[float, Field(gt=0)]
+Fraction = Annotated[float, Field(ge=0, le=1)]
+Byte = Annotated[int, Field(ge=0, le=255)]
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class CameraConfig(_Section):
+    """Which lens model to undo: "udacity" (built in), "none", or a camera file path."""
+
+    model: str = "udacity"
+
+
+class BirdseyeConfig(_Section):
+    """Source trapezoid (undistorted pixels of a ``reference_size`` frame) and its bird's-eye rectangle.
+
+    Defaults: tuned on straight_lines1/2 (see docs/birdseye.md and scripts/tune_birdseye.py).
+    """
+
+    reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
+    src: tuple[Point, Point, Point, Point] = ((581.9, 460.0), (702.0, 460.0), (1036.1, 675.0), (275.9, 675.0))
+    size: tuple[PositiveInt, PositiveInt] = (640, 480)
+    dst: tuple[Point, Point, Point, Point] = ((200.0, 0.0), (440.0, 0.0), (440.0, 480.0), (200.0, 480.0))
+    xm_per_px: PositiveFloat = 3.7 / 240
+    ym_per_px: PositiveFloat = 0.0624
+
+    @model_validator(mode="after")
+    def _check_shapes(self) -> BirdseyeConfig:
+        (x0, y0), (x1, y1), (x2, y2), (x3, y3) = self.src
+        if not (x0 < x1 and x3 < x2 and y0 < y3 and y1 < y2):
+            raise ValueError("src must be top-left, top-right, bottom-right, bottom-left")
+        (a0, b0), (a1, b1), (a2, b2), (a3, b3) = self.dst
+        if not (a0 < a1 and a3 < a2 and b0 < b3 and b1 < b2):
+            raise ValueError("dst must be top-left, top-right, bottom-right, bottom-left")
+        return self
+
+
+class SobelHlsConfig(_Section):
+    """``sobel-hls``: Sobel on the S channel of HLS plus an S colour threshold."""
+
+    kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
+    x_thresh: tuple[Byte, Byte] = (20, 255)
+    y_thresh: tuple[Byte, Byte] = (25, 255)
+    mag_thresh: tuple[Byte, Byte] = (30, 255)
+    dir_thresh: tuple[float, float] = (0.0, 0.9)
+    s_thresh: tuple[Byte, Byte] = (150, 255)
+
+
+class ColorConfig(_Section):
+    """``color``: L of HLS and L of LUV for white, b of Lab for yellow."""
+
+    hls_l: tuple[Byte, Byte] = (210, 255)
+    luv_l: tuple[Byte, Byte] = (215, 255)
+    lab_b: tuple[Byte, Byte] = (150, 255)
+
+
+class YcrcbConfig(_Section):
+    """``ycrcb``: Sobel x on Y of YCrCb, Y of YUV and R of RGB, OR-combined."""
+
+    kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
+    ycrcb_y_grad: tuple[Byte, Byte] = (30, 255)
+    yuv_y: tuple[Byte, Byte] = (205, 255)
+    rgb_r: tuple[Byte, Byte] = (215, 255)
+
+
+class RidgeConfig(_Section):
+    """``ridge`` (default): a line is brighter (or yellower) than the road on *both* sides.
+
+    Horizontal top-hat of lightness and of Lab b in the bird's-eye image; a pixel is a
+    marking when its top-hat is above ``min_contrast`` and above ``rel_contrast`` times
+    the local road level, so shadows (which scale brightness) and pavement seams (one-sided
+    steps) do not pass.
+    """
+
+    width_px: PositiveInt = 25
+    min_contrast: Byte = 12
+    rel_contrast: Annotated[float, Field(ge=0)] = 0.18
+    yellow_min_contrast: Byte = 7
+    yellow_min_b: Byte = 138
+    max_lightness: Byte = 255
+
+
+class ThresholdConfig(_Section):
+    strategy: Literal["ridge", "sobel-hls", "color", "ycrcb"] = "ridge"
+    ridge: RidgeConfig = RidgeConfig()
+    sobel_hls: SobelHlsConfig = SobelHlsConfig()
+    color: ColorConfig = ColorConfig()
+    ycrcb: YcrcbConfig = YcrcbConfig()
+
+
+class SearchConfig(_Section):
+    """Finding line pixels in the bird's-eye binary."""
+
+    method: Literal["windows", "segments"] = "windows"
+    n_windows: Annotated[int, Field(ge=2, le=100)] = 12
+    margin_px: PositiveInt = 40
+    min_pixels: PositiveInt = 30
+    histogram_fraction: Annotated[float, Field(gt=0, le=1)] = 0.5
+    around_margin_px: PositiveInt = 30
+    expected_width_px: PositiveFloat = 240.0
+    width_tolerance: Annotated[float, Field(gt=0, lt=1)] = 0.22
+
+
+class FitConfig(_Section):
+    """Robust second-order fit x = a*y^2 + b*y + c (bird's-eye pixels)."""
+
+    robust_iterations: Annotated[int, Field(ge=0, le=10)] = 2
+    huber_px: PositiveFloat = 4.0
+    min_pixels: PositiveInt = 80
+    min_span_fraction: Fraction = 0.25
+    parallel: Fraction = 0.7
+    max_radius_m: PositiveFloat = 10000.0
+    straight_radius_m: PositiveFloat = 3000.0
+
+
+class TrackingConfig(_Section):
+    """Across frames: sanity checks, smoothing, re-detection."""
+
+    min_width_m: PositiveFloat = 2.8
+    max_width_m: PositiveFloat = 4.6
+    max_width_change_m: PositiveFloat = 0.7
+    max_parallel_diff_m: PositiveFloat = 0.9
+    max_curvature_diff: PositiveFloat = 0.004
+    max_offset_jump_m: PositiveFloat = 0.4
+    max_misses: PositiveInt = 5
+    lost_after: PositiveInt = 12
+    smoothing: Fraction = 0.5
+    min_confidence: Fraction = 0.3
+
+    @model_validator(mode="after")
+    def _check_widths(self) -> TrackingConfig:
+        if self.min_width_m >= self.max_width_m:
+            raise ValueError("min_width_m must be below max_width_m")
+        return self
+
+
+class RenderConfig(_Section):
+    lane_color: tuple[Byte, Byte, Byte] = (0, 200, 0)
+    left_color: tuple[Byte, Byte, Byte] = (0, 0, 255)
+    right_color: tuple[Byte, Byte, Byte] = (255, 80, 0)
+    alpha: Fraction = 0.3
+    line_thickness: PositiveInt = 6
+    hud: bool = True
+
+
+class VideoConfig(_Section):
+    preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow"] = "veryfast"
+    crf: Annotated[int, Field(ge=0, le=51)] = 23
+    threads: Annotated[int, Field(ge=0, le=64)] = 0
+
+
+class Config(_Section):
+    """All tunables of lanefinder."""
+
+    camera: CameraConfig = CameraConfig()
+    birdseye: BirdseyeConfig = BirdseyeConfig()
+    threshold: ThresholdConfig = ThresholdConfig()
+    search: SearchConfig = SearchConfig()
+    fit: FitConfig = FitConfig()
+    tracking: TrackingConfig = TrackingConfig()
+    render: RenderConfig = RenderConfig()
+    video: VideoConfig = VideoConfig()
+
+
+def _format_error(e: ValidationError, source: str) -> str:
+    parts = []
+    for err in e.errors():
+        key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key"
+        parts.append(f"{key}: {msg}")
+    return f"invalid config {source}: " + "; ".join(parts)
+
+
+def config_from_dict(data: dict, source: str = "") -> Config:
+    try:
+        return Config.model_validate(data)
+    except ValidationError as e:
+        raise LaneFinderError(_format_error(e, source or "(dict)")) from None
+
+
+def load_config(path: str | Path | None) -> Config:
+    """Read a TOML, YAML or JSON config; None gives the defaults."""
+    if path is None:
+        return Config()
+    p = Path(path)
+    if not p.is_file():
+        raise LaneFinderError(f"config file not found: {p}")
+    text = p.read_text()
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".toml":
+            try:
+                import tomllib
+            except ModuleNotFoundError:  # Python 3.10
+                import tomli as tomllib
+
+            data = tomllib.loads(text)
+        elif suffix in (".yaml", ".yml"):
+            import yaml
+
+            data = yaml.safe_load(text) or {}
+        elif suffix == ".json":
+            data = json.loads(text)
+        else:
+            raise LaneFinderError(f"config {p}: use a .toml, .yaml or .json file")
+    except LaneFinderError:
+        raise
+    except Exception as e:  # the parsers' own errors, reported in one line
+        raise LaneFinderError(f"config {p} is not valid {suffix[1:].upper()}: {e}".splitlines()[0]) from None
+    if not isinstance(data, dict):
+        raise LaneFinderError(f"config {p}: the top level must be a table of sections")
+    cfg = config_from_dict(data, str(p))
+    if cfg.camera.model not in ("udacity", "none") and not Path(cfg.camera.model).is_absolute():
+        # A camera file named in a config is relative to that config.
+        cam_path = (p.parent / cfg.camera.model)
+        cfg = cfg.model_copy(update={"camera": CameraConfig(model=str(cam_path))})
+    return cfg
+
+
+def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml") -> str:
+    data = cfg.model_dump(mode="json")
+    if fmt == "toml":
+        import tomli_w
+
+        return "# lanefinder configuration: edit and pass back with -c\n" + tomli_w.dumps(data)
+    if fmt == "yaml":
+        import yaml
+
+        return yaml.safe_dump(data, sort_keys=False)
+    return json.dumps(data, indent=2) + "\n"

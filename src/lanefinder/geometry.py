@@ -1,0 +1,185 @@
+"""Line fits and lane geometry in metres.
+
+Conventions (also in docs/conventions.md, and tested):
+
+- A pixel fit is x = a*y^2 + b*y + c in bird's-eye pixels, y down, origin top-left.
+- A metre fit is x = A*d^2 + B*d + C where d >= 0 is the distance ahead of the
+  bird's-eye bottom row (the nearest road seen) and x is lateral, metres, positive
+  to the right of the camera centre line.
+- Curvature is signed, 1/m: positive when the lane bends to the right.
+  ``radius_m`` is 1/|curvature|, capped at ``max_radius_m``; never negative, NaN or inf.
+- ``offset_m`` is the camera centre line minus the lane centre: positive means the
+  car is right of the lane centre.
+- ``width_m`` is the lane width between the line centres at d = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import FitConfig
+
+
+@dataclass(frozen=True, eq=False)
+class LineFit:
+    """One fitted line.
+
+    coeffs_px: (a, b, c) of x = a*y^2 + b*y + c, bird's-eye pixels.
+    n_pixels: pixels used; residual_px: robust RMS residual; span: fraction of the image
+    height the pixels cover; confidence: 0..1.
+    """
+
+    coeffs_px: np.ndarray
+    n_pixels: int
+    residual_px: float
+    span: float
+    confidence: float
+
+    def x_at(self, y: np.ndarray | float) -> np.ndarray:
+        a, b, c = self.coeffs_px
+        y = np.asarray(y, np.float64)
+        return (a * y + b) * y + c
+
+
+@dataclass(frozen=True)
+class Scale:
+    """How bird's-eye pixels map to metres: see module docstring."""
+
+    xm_per_px: float
+    ym_per_px: float
+    height_px: int
+    car_x_px: float
+
+
+def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
+    """Weighted polynomial fit of x(y), centred and scaled for conditioning; returns (a, b, c)."""
+    y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
+    t = (y - y0) / ys
+    cols = [t * t, t, np.ones_like(t)] if degree == 2 else [t, np.ones_like(t)]
+    sw = np.sqrt(w)
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols) * sw[:, None], x * sw, rcond=None)
+    p, q, r = (coef if degree == 2 else np.r_[0.0, coef])
+    # Back from t = (y - y0)/ys to y.
+    a = p / ys**2
+    b = q / ys - 2 * p * y0 / ys**2
+    c = p * y0**2 / ys**2 - q * y0 / ys + r
+    return np.array([a, b, c])
+
+
+def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitConfig,
+             max_points: int = 4000) -> LineFit | None:
+    """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
+
+    Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
+    """
+    n = int(x.size)
+    if n < cfg.min_pixels:
+        return None
+    if n > max_points:  # an even subsample keeps the fit and bounds the cost
+        step = n // max_points + 1
+        x, y = x[::step], y[::step]
+    x = x.astype(np.float64)
+    y = y.astype(np.float64)
+    span = float(np.ptp(y)) / height_px
+    degree = 2 if span >= cfg.min_span_fraction else 1
+    w = np.ones_like(x)
+    coeffs = _lstsq_fit(y, x, w, degree)
+    for _ in range(cfg.robust_iterations):
+        r = np.abs(x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2]))
+        w = np.minimum(1.0, cfg.huber_px / np.maximum(r, 1e-9))
+        coeffs = _lstsq_fit(y, x, w, degree)
+    r = x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2])
+    residual = float(np.sqrt(np.average(r * r, weights=w)))
+    support = min(1.0, n / 600.0)
+    quality = 1.0 / (1.0 + (residual / 6.0) ** 2)
+    confidence = float(np.clip(math.sqrt(min(1.0, span / 0.6)) * support * quality, 0.0, 1.0))
+    return LineFit(coeffs, n, residual, span, confidence)
+
+
+def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.ndarray], height_px: int,
+             cfg: FitConfig) -> tuple[LineFit | None, LineFit | None]:
+    """Fit both lines; where both exist, pull their shapes towards each other.
+
+    Lane lines are (nearly) parallel, so the shape (a, b) of each line moves a fraction
+    ``cfg.parallel`` of the way to the support-weighted shared shape, and its position c
+    is refit as the median of the residual.  A short dashed line then borrows the shape
+    of a long solid one instead of extrapolating its own.
+    """
+    fl = fit_line(left[0], left[1], height_px, cfg)
+    fr = fit_line(right[0], right[1], height_px, cfg)
+    if fl is None or fr is None or cfg.parallel == 0:
+        return fl, fr
+    wl, wr = fl.n_pixels * fl.span**2 * fl.confidence, fr.n_pixels * fr.span**2 * fr.confidence
+    if wl + wr <= 0:
+        return fl, fr
+    shared = (wl * fl.coeffs_px[:2] + wr * fr.coeffs_px[:2]) / (wl + wr)
+    out = []
+    for fit, (x, y) in ((fl, left), (fr, right)):
+        ab = (1 - cfg.parallel) * fit.coeffs_px[:2] + cfg.parallel * shared
+        yy = y.astype(np.float64)
+        c = float(np.median(x - (ab[0] * yy + ab[1]) * yy))
+        out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))
+    return out[0], out[1]
+
+
+def px_to_m(coeffs_px: np.ndarray, s: Scale) -> np.ndarray:
+    """(a, b, c) in bird's-eye pixels -> (A, B, C) in metres: x_m(d), d ahead of the bottom row."""
+    a, b, c = coeffs_px
+    h, xm, ym = s.height_px, s.xm_per_px, s.ym_per_px
+    return np.array([xm * a / ym**2, -xm * (2 * a * h + b) / ym, xm * (a * h * h + b * h + c - s.car_x_px)])
+
+
+def m_to_px(coeffs_m: np.ndarray, s: Scale) -> np.ndarray:
+    """Inverse of :func:`px_to_m`."""
+    big_a, big_b, big_c = coeffs_m
+    h, xm, ym = s.height_px, s.xm_per_px, s.ym_per_px
+    a = big_a * ym**2 / xm
+    b = (-2 * big_a * ym**2 * h - big_b * ym) / xm
+    c = (big_a * ym**2 * h * h + big_b * ym * h + big_c) / xm + s.car_x_px
+    return np.array([a, b, c])
+
+
+def curvature_per_m(coeffs_m: np.ndarray, d_m: float = 0.0) -> float:
+    """Signed curvature (1/m) of x(d) at distance d: positive bends right."""
+    big_a, big_b, _ = coeffs_m
+    slope = 2 * big_a * d_m + big_b
+    return float(2 * big_a / (1 + slope * slope) ** 1.5)
+
+
+def radius_from_curvature(k: float, max_radius_m: float) -> float:
+    """1/|k| in metres, capped at ``max_radius_m`` (a straight road gives the cap)."""
+    if not math.isfinite(k) or abs(k) < 1.0 / max_radius_m:
+        return float(max_radius_m)
+    return float(1.0 / abs(k))
+
+
+@dataclass(frozen=True)
+class LaneGeometry:
+    """Lane numbers at the car (the bird's-eye bottom row), metres; see module docstring."""
+
+    curvature_per_m: float
+    radius_m: float
+    left_radius_m: float
+    right_radius_m: float
+    offset_m: float
+    width_m: float
+    straight: bool
+
+
+def lane_geometry(left_m: np.ndarray, right_m: np.ndarray, cfg: FitConfig) -> LaneGeometry:
+    """Curvature, radius, offset and width of the lane between two metre fits."""
+    centre = (np.asarray(left_m) + np.asarray(right_m)) / 2
+    k = curvature_per_m(centre)
+    radius = radius_from_curvature(k, cfg.max_radius_m)
+    return LaneGeometry(
+        curvature_per_m=k,
+        radius_m=radius,
+        left_radius_m=radius_from_curvature(curvature_per_m(left_m), cfg.max_radius_m),
+        right_radius_m=radius_from_curvature(curvature_per_m(right_m), cfg.max_radius_m),
+        offset_m=float(-centre[2]),
+        width_m=float(right_m[2] - left_m[2]),
+        straight=radius >= cfg.straight_radius_m,
+    )

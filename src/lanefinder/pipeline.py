@@ -1,0 +1,177 @@
+"""The pipeline object: composes camera, bird's-eye view, threshold, search, fit and tracking.
+
+>>> finder = LaneFinder(Config())          # doctest: +SKIP
+>>> result = finder.process(frame_bgr)      # doctest: +SKIP
+>>> result.radius_m, result.offset_m        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+
+import numpy as np
+
+from .birdseye import BirdsEye, make_birdseye
+from .camera import CameraModel, load_camera
+from .config import Config
+from .errors import LaneFinderError
+from .geometry import LineFit, Scale, fit_lane, lane_geometry, m_to_px, px_to_m
+from .search import Pixels, SearchResult, blind_search, search_around
+from .threshold import threshold
+from .tracking import LOST, LaneTracker, Measurement, TrackedLane
+
+
+@dataclass(frozen=True, eq=False)
+class LaneResult:
+    """Everything found in one frame.
+
+    Fits: ``*_fit_px`` are (a, b, c) of x = a*y^2 + b*y + c in bird's-eye pixels; ``*_fit_m`` are
+    (A, B, C) of x = A*d^2 + B*d + C in metres (see :mod:`lanefinder.geometry`).
+    Numbers are NaN only when ``lane_found`` is False.
+    """
+
+    left_found: bool
+    right_found: bool
+    left_inferred: bool
+    right_inferred: bool
+    left_fit_px: np.ndarray | None
+    right_fit_px: np.ndarray | None
+    left_fit_m: np.ndarray | None
+    right_fit_m: np.ndarray | None
+    left_pixels: int
+    right_pixels: int
+    left_conf: float
+    right_conf: float
+    radius_m: float
+    curvature_per_m: float
+    offset_m: float
+    width_m: float
+    straight: bool
+    state: str
+    misses: int = 0
+    checks: tuple[str, ...] = ()
+    binary: np.ndarray | None = None
+    search: SearchResult | None = None
+
+    @property
+    def lane_found(self) -> bool:
+        return self.left_fit_px is not None and self.right_fit_px is not None
+
+
+@cache
+def _udacity_camera() -> CameraModel:
+    path = resources.files("lanefinder") / "data" / "udacity_camera.json"
+    with resources.as_file(path) as p:
+        return load_camera(p)
+
+
+def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -> CameraModel:
+    """The configured camera: built-in Udacity, none (ideal pinhole), or a camera file."""
+    name = cfg.camera.model
+    if name == "udacity":
+        return _udacity_camera()
+    if name == "none":
+        size = frame_size or cfg.birdseye.reference_size
+        return CameraModel.ideal(size)
+    return load_camera(name)
+
+
+def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int, int]) -> BirdsEye:
+    """The bird's-eye set-up for frames of ``frame_size``: src points scale with the frame."""
+    b = cfg.birdseye
+    w, h = frame_size
+    rw, rh = b.reference_size
+    if abs((w / h) / (rw / rh) - 1) > 0.01:
+        raise LaneFinderError(
+            f"frame size {w}x{h} has another aspect ratio than the configured set-up ({rw}x{rh}); "
+            "run 'lanefinder setup' for this camera"
+        )
+    cam = camera.scaled_to(frame_size)
+    src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
+    return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+
+
+class LaneFinder:
+    """Finds the lane in frames; keeps a track across calls to :meth:`process` (call :meth:`reset` between clips)."""
+
+    def __init__(self, config: Config | None = None, camera: CameraModel | None = None, keep_debug: bool = False):
+        self.config = config or Config()
+        self._camera = camera
+        self._birdseye: BirdsEye | None = None
+        self.keep_debug = keep_debug
+        self.tracker: LaneTracker | None = None
+
+    def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
+        """The (cached) bird's-eye set-up for this frame size."""
+        be = self._birdseye
+        if be is None or be.frame_size != tuple(frame_size):
+            if self._camera is None:
+                self._camera = camera_from_config(self.config, frame_size)
+            be = birdseye_from_config(self.config, self._camera, tuple(frame_size))
+            self._birdseye = be
+            lookahead = be.size[1] * be.ym_per_px
+            self.tracker = LaneTracker(self.config.tracking, lookahead)
+        return be
+
+    def scale(self, be: BirdsEye) -> Scale:
+        return Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px)
+
+    def reset(self) -> None:
+        """Forget the track (start of a new clip, or independent images)."""
+        if self.tracker is not None:
+            self.tracker.reset()
+
+    def process(self, frame: np.ndarray) -> LaneResult:
+        """Find the lane in one BGR uint8 frame."""
+        if frame is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
+            raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+        be = self.birdseye((frame.shape[1], frame.shape[0]))
+        binary = threshold(be.warp(frame), self.config.threshold)
+        return self.process_binary(binary, be)
+
+    def process_binary(self, binary: np.ndarray, be: BirdsEye) -> LaneResult:
+        """Search, fit and track on a bird's-eye binary (uint8 0/1)."""
+        cfg = self.config
+        tracker = self.tracker
+        assert tracker is not None
+        scale = self.scale(be)
+        pixels = Pixels.of(binary)
+        blind = tracker.needs_blind_search
+        if blind:
+            found = blind_search(binary, cfg.search, be.car_x_px, pixels)
+        else:
+            found = search_around(binary, m_to_px(tracker.left, scale), m_to_px(tracker.right, scale),
+                                  cfg.search.around_margin_px, pixels)
+        height = be.size[1]
+        if not blind and (found.left.count < cfg.fit.min_pixels or found.right.count < cfg.fit.min_pixels):
+            # Lost a line around the track: look for it blind in the same frame.
+            again = blind_search(binary, cfg.search, be.car_x_px, pixels)
+            found = SearchResult(found.left if found.left.count >= cfg.fit.min_pixels else again.left,
+                                 found.right if found.right.count >= cfg.fit.min_pixels else again.right,
+                                 found.method + "+windows", again.histogram, again.bases_px, found.band_px)
+        fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, cfg.fit)
+        track = tracker.update(self._measure(fit_l, scale), self._measure(fit_r, scale), blind)
+        return self._result(track, fit_l, fit_r, found, binary, scale)
+
+    @staticmethod
+    def _measure(fit: LineFit | None, scale: Scale) -> Measurement | None:
+        return None if fit is None else Measurement(px_to_m(fit.coeffs_px, scale), fit.confidence)
+
+    def _result(self, t: TrackedLane, fit_l: LineFit | None, fit_r: LineFit | None, found: SearchResult,
+                binary: np.ndarray, scale: Scale) -> LaneResult:
+        debug = {"binary": binary, "search": found} if self.keep_debug else {}
+        nan = float("nan")
+        if not t.has_lane:
+            return LaneResult(False, False, False, False, None, None, None, None,
+                              fit_l.n_pixels if fit_l else 0, fit_r.n_pixels if fit_r else 0,
+                              t.left_conf, t.right_conf, nan, nan, nan, nan, False, LOST, t.misses, t.checks, **debug)
+        g = lane_geometry(t.left_m, t.right_m, self.config.fit)
+        return LaneResult(
+            t.left_found, t.right_found, t.left_inferred, t.right_inferred,
+            m_to_px(t.left_m, scale), m_to_px(t.right_m, scale), t.left_m, t.right_m,
+            fit_l.n_pixels if fit_l else 0, fit_r.n_pixels if fit_r else 0,
+            t.left_conf, t.right_conf, g.radius_m, g.curvature_per_m, g.offset_m, g.width_m, g.straight,
+            t.state, t.misses, t.checks, **debug,
+        )

@@ -1,0 +1,49 @@
+"""Telemetry plots with matplotlib."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LaneFinderError
+from .io import atomic_path
+
+
+def plot_telemetry(rows: list[dict], path: str | Path) -> None:
+    """Radius, offset, width and line confidences over time, one panel each (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not rows:
+        raise LaneFinderError("the telemetry file has no rows")
+
+    def col(key: str) -> np.ndarray:
+        return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
+
+    t = col("time_s")
+    fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
+    axes[0].semilogy(t, col("radius_m"), lw=1)
+    axes[0].set_ylabel("radius (m)")
+    axes[1].plot(t, col("offset_m"), lw=1)
+    axes[1].axhline(0, color="grey", lw=0.5)
+    axes[1].set_ylabel("offset (m)\n+ = right of centre")
+    axes[2].plot(t, col("width_m"), lw=1)
+    axes[2].set_ylabel("lane width (m)")
+    axes[3].plot(t, col("left_conf"), lw=1, label="left")
+    axes[3].plot(t, col("right_conf"), lw=1, label="right")
+    lost = np.array([r.get("state") == "lost" for r in rows])
+    if lost.any():
+        axes[3].fill_between(t, 0, 1, where=lost, color="red", alpha=0.2, label="lost", step="mid")
+    axes[3].set_ylim(0, 1.05)
+    axes[3].set_ylabel("confidence")
+    axes[3].legend(loc="lower right")
+    axes[3].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    plt.close(fig)

@@ -1,0 +1,243 @@
+"""Finding the pixels of each lane line in the bird's-eye binary.
+
+Three searches, all over the same sorted list of set pixels:
+- :func:`sliding_windows`: a histogram of the lower image, then windows stepping up;
+- :func:`segment_search`: a histogram per horizontal segment, implausible peaks rejected;
+- :func:`search_around`: a band around a previous fit (video tracking).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from .config import SearchConfig
+
+# A window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels; found tells if it held enough pixels.
+Window = tuple[int, int, int, int, bool]
+
+
+@dataclass(frozen=True, eq=False)
+class LinePixels:
+    """Pixels attributed to one line, bird's-eye (x, y)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    windows: tuple[Window, ...] = ()
+
+    @property
+    def count(self) -> int:
+        return int(self.x.size)
+
+
+@dataclass(frozen=True, eq=False)
+class SearchResult:
+    left: LinePixels
+    right: LinePixels
+    method: str
+    histogram: np.ndarray | None = None
+    bases_px: tuple[float | None, float | None] = (None, None)
+    band_px: int = 0
+    extra: dict = field(default_factory=dict)
+
+
+EMPTY = LinePixels(np.empty(0, np.float32), np.empty(0, np.float32))
+
+
+@dataclass(frozen=True, eq=False)
+class Pixels:
+    """All set pixels of a binary, sorted by row (as np.nonzero gives them)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, binary: np.ndarray) -> Pixels:
+        pts = cv2.findNonZero(binary)
+        if pts is None:
+            e = np.empty(0, np.int32)
+            return cls(e, e, binary.shape[:2])
+        pts = pts.reshape(-1, 2)
+        return cls(pts[:, 0], pts[:, 1], binary.shape[:2])
+
+    def rows(self, y_lo: int, y_hi: int) -> slice:
+        """The slice of pixels with y_lo <= y < y_hi."""
+        return slice(int(np.searchsorted(self.y, y_lo)), int(np.searchsorted(self.y, y_hi)))
+
+
+def histogram(binary: np.ndarray, fraction: float = 0.5) -> np.ndarray:
+    """Column sums of the lower ``fraction`` of the binary, float32."""
+    h = binary.shape[0]
+    return cv2.reduce(binary[int(h * (1 - fraction)):], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel().astype(np.float32)
+
+
+def _smooth(hist: np.ndarray, width: int) -> np.ndarray:
+    return cv2.blur(hist.reshape(1, -1), (max(1, width), 1)).ravel()
+
+
+def _local_maxima(h: np.ndarray, min_count: float, most: int = 8) -> np.ndarray:
+    """Indices of the ``most`` highest local maxima of ``h`` at or above ``min_count``."""
+    if h.size < 3:
+        return np.empty(0, int)
+    inner = (h[1:-1] >= h[:-2]) & (h[1:-1] > h[2:]) & (h[1:-1] >= min_count)
+    idx = np.flatnonzero(inner) + 1
+    return idx[np.argsort(h[idx])[::-1][:most]]
+
+
+def find_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tolerance: float,
+               min_count: float = 1.0) -> tuple[float | None, float | None]:
+    """Left and right line x at the bottom from a (column) histogram.
+
+    Of all pairs of peaks, one left and one right of the car, whose spacing is the expected
+    lane width within ``tolerance``, the pair with the most support wins.  With no such
+    pair, the strongest peak is kept alone on its side of the car.
+    """
+    hs = _smooth(hist, 9)
+    peaks = _local_maxima(hs, min_count)
+    if peaks.size == 0:
+        return None, None
+    lo_w, hi_w = expected_width_px * (1 - tolerance), expected_width_px * (1 + tolerance)
+    # Pairs: every left candidate with every right candidate at a plausible spacing.
+    li, ri = np.meshgrid(peaks, peaks, indexing="ij")
+    gap = ri - li
+    valid = (gap >= lo_w) & (gap <= hi_w) & (li < car_x + expected_width_px / 2) & (ri > car_x - expected_width_px / 2)
+    if valid.any():
+        # Support of both peaks, and a mild preference for a lane around the car.
+        centre_penalty = np.abs((li + ri) / 2 - car_x) / expected_width_px
+        score = np.where(valid, (hs[li] + hs[ri]) * (1 - 0.3 * centre_penalty), -np.inf)
+        i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+        return float(li[i, j]), float(ri[i, j])
+    best = int(peaks[0])
+    return (float(best), None) if best < car_x else (None, float(best))
+
+
+def base_histogram(binary: np.ndarray, fraction: float) -> np.ndarray:
+    """Column support for line bases: the lower ``fraction`` counts fully, the rest half.
+
+    A line with a gap at the bottom (between dashes) still gets a base from higher up.
+    """
+    h = binary.shape[0]
+    cut = int(h * (1 - fraction))
+    lower = histogram(binary, fraction)
+    if cut <= 0:
+        return lower
+    upper = cv2.reduce(binary[:cut], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel().astype(np.float32)
+    return lower + 0.5 * upper
+
+
+def _take(px: Pixels, parts: list[np.ndarray]) -> LinePixels:
+    if not parts:
+        return EMPTY
+    idx = np.concatenate(parts)
+    return LinePixels(px.x[idx].astype(np.float32), px.y[idx].astype(np.float32))
+
+
+def _windows_for(px: Pixels, base: float | None, cfg: SearchConfig) -> LinePixels:
+    if base is None:
+        return EMPTY
+    h, w = px.shape
+    win_h = h / cfg.n_windows
+    x_c, step = float(base), 0.0
+    parts: list[np.ndarray] = []
+    windows: list[Window] = []
+    for i in range(cfg.n_windows):
+        y_hi = round(h - i * win_h)
+        y_lo = round(h - (i + 1) * win_h)
+        sl = px.rows(y_lo, y_hi)
+        xs = px.x[sl]
+        sel = np.flatnonzero(np.abs(xs - x_c) < cfg.margin_px)
+        found = sel.size >= cfg.min_pixels
+        windows.append((int(x_c - cfg.margin_px), y_lo, int(x_c + cfg.margin_px), y_hi, bool(found)))
+        if found:
+            parts.append(sel + sl.start)
+            new_x = float(xs[sel].mean())
+            step = 0.5 * step + 0.5 * (new_x - x_c) if i else 0.0
+            x_c = new_x + step
+        else:
+            x_c += step  # keep following the bend
+        if not -cfg.margin_px < x_c < w + cfg.margin_px:
+            break
+    lp = _take(px, parts)
+    return LinePixels(lp.x, lp.y, tuple(windows))
+
+
+def sliding_windows(binary: np.ndarray, cfg: SearchConfig, car_x: float,
+                    pixels: Pixels | None = None) -> SearchResult:
+    """Histogram of the lower image for the line bases, then windows stepping up."""
+    px = pixels or Pixels.of(binary)
+    hist = base_histogram(binary, cfg.histogram_fraction)
+    bases = find_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance, min_count=cfg.min_pixels / 4)
+    return SearchResult(_windows_for(px, bases[0], cfg), _windows_for(px, bases[1], cfg), "windows", hist, bases)
+
+
+def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: SearchConfig) -> LinePixels:
+    if base is None:
+        return EMPTY
+    h, w = binary.shape
+    seg_h = h / cfg.n_windows
+    x_c, step = float(base), 0.0
+    parts: list[np.ndarray] = []
+    windows: list[Window] = []
+    reach = 2 * cfg.margin_px
+    for i in range(cfg.n_windows):
+        y_hi = round(h - i * seg_h)
+        y_lo = round(h - (i + 1) * seg_h)
+        x_lo, x_hi = int(max(0, x_c - reach)), int(min(w, x_c + reach))
+        found = False
+        if x_hi - x_lo > 4:
+            hist = _smooth(cv2.reduce(binary[y_lo:y_hi, x_lo:x_hi], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
+                           .ravel().astype(np.float32), 5)
+            j = int(np.argmax(hist))
+            peak_x = float(x_lo + j)
+            # Reject a peak that is weak, or far from where the line is heading.
+            found = hist[j] * 5 >= cfg.min_pixels / 2 and abs(peak_x - x_c) <= 1.5 * cfg.margin_px
+            if found:
+                sl = px.rows(y_lo, y_hi)
+                sel = np.flatnonzero(np.abs(px.x[sl] - peak_x) < cfg.margin_px / 2)
+                found = sel.size >= cfg.min_pixels / 2
+                if found:
+                    parts.append(sel + sl.start)
+                    step = 0.5 * step + 0.5 * (peak_x - x_c) if i else 0.0
+                    x_c = peak_x + step
+        windows.append((int(x_c - cfg.margin_px / 2), y_lo, int(x_c + cfg.margin_px / 2), y_hi, bool(found)))
+        if not found:
+            x_c += step
+    lp = _take(px, parts)
+    return LinePixels(lp.x, lp.y, tuple(windows))
+
+
+def segment_search(binary: np.ndarray, cfg: SearchConfig, car_x: float,
+                   pixels: Pixels | None = None) -> SearchResult:
+    """Histograms segment by segment, following each line up and rejecting implausible peaks."""
+    px = pixels or Pixels.of(binary)
+    hist = base_histogram(binary, cfg.histogram_fraction)
+    bases = find_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance, min_count=cfg.min_pixels / 4)
+    return SearchResult(_segments_for(binary, px, bases[0], cfg), _segments_for(binary, px, bases[1], cfg),
+                        "segments", hist, bases)
+
+
+def blind_search(binary: np.ndarray, cfg: SearchConfig, car_x: float, pixels: Pixels | None = None) -> SearchResult:
+    """The configured search that needs no previous fit."""
+    if cfg.method == "segments":
+        return segment_search(binary, cfg, car_x, pixels)
+    return sliding_windows(binary, cfg, car_x, pixels)
+
+
+def _around(px: Pixels, fit: np.ndarray | None, margin: float) -> LinePixels:
+    if fit is None or px.x.size == 0:
+        return EMPTY
+    y = px.y.astype(np.float32)
+    pred = (fit[0] * y + fit[1]) * y + fit[2]
+    sel = np.flatnonzero(np.abs(px.x - pred) < margin)
+    return LinePixels(px.x[sel].astype(np.float32), y[sel])
+
+
+def search_around(binary: np.ndarray, left_fit: np.ndarray | None, right_fit: np.ndarray | None,
+                  margin_px: float, pixels: Pixels | None = None) -> SearchResult:
+    """Pixels within ``margin_px`` of previous fits x = a*y^2 + b*y + c."""
+    px = pixels or Pixels.of(binary)
+    return SearchResult(_around(px, left_fit, margin_px), _around(px, right_fit, margin_px), "around",
+                        band_px=int(margin_px))

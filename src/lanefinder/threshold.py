@@ -1,0 +1,106 @@
+"""Lane-marking pixels: strategies from a BGR uint8 image to a binary mask (uint8 0/1).
+
+Every strategy is a plain function ``f(image, cfg) -> mask``; :func:`threshold`
+picks one by the name in the configuration.  The pipeline applies them to the
+bird's-eye image, where a marking has the same width (in pixels) near and far.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
+
+
+def _in_range(channel: np.ndarray, lo_hi: tuple[float, float]) -> np.ndarray:
+    lo, hi = lo_hi
+    return (channel >= lo) & (channel <= hi)
+
+
+def _scaled_abs(grad: np.ndarray) -> np.ndarray:
+    """|gradient| scaled to 0..255 by its maximum (the classroom convention)."""
+    a = np.abs(grad)
+    peak = float(a.max())
+    return (a * (255.0 / peak)).astype(np.uint8) if peak > 0 else np.zeros(a.shape, np.uint8)
+
+
+def sobel_hls(image: np.ndarray, cfg: SobelHlsConfig) -> np.ndarray:
+    """S of HLS: Sobel x AND y, or magnitude AND direction, OR an S colour band.
+
+    Right for well-lit roads with saturated (yellow) lines; weak in shadows and on pale concrete.
+    """
+    s = cv2.cvtColor(image, cv2.COLOR_BGR2HLS)[..., 2]
+    gx = cv2.Sobel(s, cv2.CV_32F, 1, 0, ksize=cfg.kernel)
+    gy = cv2.Sobel(s, cv2.CV_32F, 0, 1, ksize=cfg.kernel)
+    mag = _scaled_abs(cv2.magnitude(gx, gy))
+    direction = np.arctan2(np.abs(gy), np.abs(gx))
+    grad = (_in_range(_scaled_abs(gx), cfg.x_thresh) & _in_range(_scaled_abs(gy), cfg.y_thresh)) | (
+        _in_range(mag, cfg.mag_thresh) & _in_range(direction, cfg.dir_thresh)
+    )
+    return (grad | _in_range(s, cfg.s_thresh)).astype(np.uint8)
+
+
+def color(image: np.ndarray, cfg: ColorConfig) -> np.ndarray:
+    """White from L of HLS or L of LUV, yellow from b of Lab.
+
+    Right for clean, evenly lit roads; fixed levels fail in deep shade and in glare.
+    """
+    hls_l = cv2.cvtColor(image, cv2.COLOR_BGR2HLS)[..., 1]
+    luv_l = cv2.cvtColor(image, cv2.COLOR_BGR2LUV)[..., 0]
+    lab_b = cv2.cvtColor(image, cv2.COLOR_BGR2LAB)[..., 2]
+    return (_in_range(hls_l, cfg.hls_l) | _in_range(luv_l, cfg.luv_l) | _in_range(lab_b, cfg.lab_b)).astype(np.uint8)
+
+
+def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
+    """Sobel x on Y of YCrCb, OR Y of YUV, OR R of RGB.
+
+    Right for bright white lines on dark asphalt; gradients also fire on seams and shadow edges.
+    """
+    y = cv2.cvtColor(image, cv2.COLOR_BGR2YCrCb)[..., 0]
+    yuv_y = cv2.cvtColor(image, cv2.COLOR_BGR2YUV)[..., 0]
+    gx = _scaled_abs(cv2.Sobel(y, cv2.CV_32F, 1, 0, ksize=cfg.kernel))
+    r = image[..., 2]
+    return (_in_range(gx, cfg.ycrcb_y_grad) | _in_range(yuv_y, cfg.yuv_y) | _in_range(r, cfg.rgb_r)).astype(np.uint8)
+
+
+def ridge(image: np.ndarray, cfg: RidgeConfig) -> np.ndarray:
+    """Markings as horizontal ridges of lightness (white) or of Lab b (yellow).
+
+    The top-hat ``v - opening(v)`` over a ``width_px`` wide window keeps only features
+    narrower than the window and brighter than the road on both sides.  A shadow edge or
+    a pavement seam is a one-sided step: its top-hat is zero.  The white test is relative
+    to the local road level, so a line in shade passes and sunlit texture does not.
+    Right for the bird's-eye image of any road; the default.
+    """
+    lab = cv2.cvtColor(image, cv2.COLOR_BGR2LAB)
+    light, yellow = lab[..., 0], lab[..., 2]
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (int(cfg.width_px), 1))
+    road = cv2.morphologyEx(light, cv2.MORPH_OPEN, kernel)
+    top = cv2.subtract(light, road)
+    # contrast > max(min_contrast, rel_contrast * road): one fused integer comparison.
+    need = cv2.max(cv2.convertScaleAbs(road, alpha=cfg.rel_contrast), int(cfg.min_contrast))
+    white = cv2.compare(top, need, cv2.CMP_GT)
+    if cfg.max_lightness < 255:
+        white &= cv2.compare(light, int(cfg.max_lightness), cv2.CMP_LE)
+    ytop = cv2.subtract(yellow, cv2.morphologyEx(yellow, cv2.MORPH_OPEN, kernel))
+    yel = cv2.compare(ytop, int(cfg.yellow_min_contrast), cv2.CMP_GT) & cv2.compare(
+        yellow, int(cfg.yellow_min_b), cv2.CMP_GT
+    )
+    return cv2.bitwise_or(white, yel) // 255
+
+
+STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = {
+    "ridge": (ridge, "ridge"),
+    "sobel-hls": (sobel_hls, "sobel_hls"),
+    "color": (color, "color"),
+    "ycrcb": (ycrcb, "ycrcb"),
+}
+
+
+def threshold(image: np.ndarray, cfg: ThresholdConfig) -> np.ndarray:
+    """Binary mask (uint8 0/1) of lane-marking pixels with the configured strategy."""
+    func, section = STRATEGIES[cfg.strategy]
+    return func(image, getattr(cfg, section))

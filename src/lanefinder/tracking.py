@@ -1,0 +1,201 @@
+"""Tracking the lane across frames: sanity checks, confidence, smoothing, re-detection.
+
+Works on metre fits (see :mod:`lanefinder.geometry`): x = A*d^2 + B*d + C, d ahead.
+A :class:`LaneTracker` takes each frame's measured lines and returns the lane to show.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import TrackingConfig
+from .geometry import curvature_per_m
+
+TRACKING, REDETECT, LOST = "tracking", "re-detect", "lost"
+
+
+@dataclass(frozen=True, eq=False)
+class Measurement:
+    """One line as measured in a frame: metre fit and fit confidence (0..1)."""
+
+    coeffs_m: np.ndarray
+    confidence: float
+
+
+@dataclass(frozen=True, eq=False)
+class TrackedLane:
+    """The tracker's answer for one frame.
+
+    left_m/right_m: metre fits to show (None when lost).  *_found: measured and accepted this
+    frame; *_inferred: drawn from the other line and the tracked width.  checks: names of the
+    sanity checks that failed this frame.
+    """
+
+    left_m: np.ndarray | None
+    right_m: np.ndarray | None
+    left_found: bool
+    right_found: bool
+    left_inferred: bool
+    right_inferred: bool
+    left_conf: float
+    right_conf: float
+    state: str
+    misses: int
+    checks: tuple[str, ...] = ()
+
+    @property
+    def has_lane(self) -> bool:
+        return self.left_m is not None and self.right_m is not None
+
+
+def _x_at(c: np.ndarray, d: float) -> float:
+    return float((c[0] * d + c[1]) * d + c[2])
+
+
+@dataclass
+class LaneTracker:
+    """Stateful lane tracker; one per video.
+
+    ``lookahead_m`` is the farthest distance the fits are checked at (the bird's-eye top).
+    """
+
+    cfg: TrackingConfig
+    lookahead_m: float
+    default_width_m: float = 3.7
+    left: np.ndarray | None = None
+    right: np.ndarray | None = None
+    width_m: float | None = None
+    misses: int = 0
+    stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
+
+    @property
+    def needs_blind_search(self) -> bool:
+        """True when the next frame should be searched without a prior."""
+        return self.left is None or self.right is None or self.misses >= self.cfg.max_misses
+
+    def reset(self) -> None:
+        self.left = self.right = None
+        self.width_m = None
+        self.misses = 0
+
+    # -- checks -------------------------------------------------------------------------
+    def _pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
+        c = self.cfg
+        problems = []
+        w_near = rm[2] - lm[2]
+        w_far = _x_at(rm, self.lookahead_m) - _x_at(lm, self.lookahead_m)
+        w_mid = _x_at(rm, self.lookahead_m / 2) - _x_at(lm, self.lookahead_m / 2)
+        if not c.min_width_m <= w_near <= c.max_width_m:
+            problems.append("width")
+        if max(abs(w_far - w_near), abs(w_mid - w_near)) > c.max_parallel_diff_m:
+            problems.append("parallel")
+        if abs(curvature_per_m(lm) - curvature_per_m(rm)) > c.max_curvature_diff:
+            problems.append("curvature")
+        tracked_width = self.width_m is not None and not self.needs_blind_search
+        if tracked_width and abs(w_near - self.width_m) > c.max_width_change_m:
+            problems.append("width-change")
+        return problems
+
+    def _jump_ok(self, meas: np.ndarray, tracked: np.ndarray | None) -> bool:
+        if tracked is None or self.misses >= self.cfg.max_misses:
+            return True
+        lim = self.cfg.max_offset_jump_m
+        near = abs(meas[2] - tracked[2])
+        far = abs(_x_at(meas, self.lookahead_m) - _x_at(tracked, self.lookahead_m))
+        return near <= lim and far <= 3 * lim
+
+    # -- update -------------------------------------------------------------------------
+    def update(self, left: Measurement | None, right: Measurement | None, blind: bool) -> TrackedLane:
+        """Fold one frame's measurements into the track and return what to show."""
+        c = self.cfg
+        self.stats["frames"] += 1
+        checks: list[str] = []
+        ok_l = left is not None and left.confidence >= c.min_confidence
+        ok_r = right is not None and right.confidence >= c.min_confidence
+        if left is not None and not ok_l:
+            checks.append("left-confidence")
+        if right is not None and not ok_r:
+            checks.append("right-confidence")
+        if ok_l and not self._jump_ok(left.coeffs_m, self.left):
+            ok_l = False
+            checks.append("left-jump")
+        if ok_r and not self._jump_ok(right.coeffs_m, self.right):
+            ok_r = False
+            checks.append("right-jump")
+        conf_l = left.confidence if left is not None else 0.0
+        conf_r = right.confidence if right is not None else 0.0
+        if ok_l and ok_r:
+            problems = self._pair_problems(left.coeffs_m, right.coeffs_m)
+            if problems:
+                checks.extend(problems)
+                # Keep the line that agrees better with the track, else the more confident one.
+                if self.left is not None and self.right is not None and not self.needs_blind_search:
+                    dl = abs(left.coeffs_m[2] - self.left[2])
+                    dr = abs(right.coeffs_m[2] - self.right[2])
+                    drop_left = dl > dr
+                else:
+                    drop_left = conf_l < conf_r
+                if drop_left:
+                    ok_l = False
+                else:
+                    ok_r = False
+                conf_l *= 0.5
+                conf_r *= 0.5
+
+        if not ok_l and not ok_r:
+            return self._miss(checks, conf_l, conf_r, blind)
+
+        width = self.width_m if self.width_m is not None else self.default_width_m
+        if ok_l and ok_r:
+            meas_l, meas_r = left.coeffs_m, right.coeffs_m
+            w_meas = float(meas_r[2] - meas_l[2])
+            self.width_m = w_meas if self.width_m is None else self.width_m + 0.1 * (w_meas - self.width_m)
+        elif ok_l:
+            meas_l = left.coeffs_m
+            meas_r = self._shift(meas_l, width) if self.right is None or blind else self._parallel_to(meas_l, width)
+        else:
+            meas_r = right.coeffs_m
+            meas_l = self._shift(meas_r, -width) if self.left is None or blind else self._parallel_to(meas_r, -width)
+        fresh = self.left is None or self.right is None or self.needs_blind_search
+        self.left = meas_l.copy() if fresh else self._smooth(self.left, meas_l, conf_l if ok_l else 0.5 * conf_r)
+        self.right = meas_r.copy() if fresh else self._smooth(self.right, meas_r, conf_r if ok_r else 0.5 * conf_l)
+        self.misses = 0
+        self.stats["tracked"] += 1
+        if blind:
+            self.stats["redetect"] += 1
+        return TrackedLane(self.left.copy(), self.right.copy(), ok_l, ok_r, not ok_l, not ok_r,
+                           conf_l, conf_r, REDETECT if blind else TRACKING, 0, tuple(checks))
+
+    @staticmethod
+    def _shift(coeffs: np.ndarray, dx: float) -> np.ndarray:
+        out = coeffs.copy()
+        out[2] += dx
+        return out
+
+    def _parallel_to(self, coeffs: np.ndarray, dx: float) -> np.ndarray:
+        return self._shift(coeffs, dx)
+
+    def _smooth(self, old: np.ndarray, new: np.ndarray, conf: float) -> np.ndarray:
+        # Exponential smoothing weighted by confidence.  The gain rises with the size of the
+        # change relative to the jump limit, so a sharp bend is followed without lag while
+        # small wobble is damped.
+        base = self.cfg.smoothing
+        far_move = abs(_x_at(new, self.lookahead_m) - _x_at(old, self.lookahead_m))
+        change = far_move / max(self.cfg.max_offset_jump_m, 1e-6)
+        gain = float(np.clip((1 - base) * (0.4 + 0.6 * conf) + 0.3 * min(change, 1.0), 0.05, 1.0))
+        return old + gain * (new - old)
+
+    def _miss(self, checks: list[str], conf_l: float, conf_r: float, blind: bool) -> TrackedLane:
+        self.misses += 1
+        self.stats["rejected"] += 1
+        if self.left is None or self.right is None or self.misses > self.cfg.lost_after:
+            self.reset()
+            self.misses = self.cfg.lost_after + 1
+            self.stats["lost"] += 1
+            return TrackedLane(None, None, False, False, False, False, conf_l, conf_r, LOST, self.misses, tuple(checks))
+        if blind:
+            self.stats["redetect"] += 1
+        return TrackedLane(self.left.copy(), self.right.copy(), False, False, True, True, conf_l, conf_r,
+                           REDETECT if blind else TRACKING, self.misses, tuple(checks))
