@@ -39,11 +39,11 @@ class BirdseyeConfig(_Section):
     """
 
     reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
-    src: tuple[Point, Point, Point, Point] = ((581.9, 460.0), (702.0, 460.0), (1036.1, 675.0), (275.9, 675.0))
+    src: tuple[Point, Point, Point, Point] = ((581.3, 460.0), (702.9, 460.0), (1034.0, 675.0), (280.5, 675.0))
     size: tuple[PositiveInt, PositiveInt] = (640, 480)
     dst: tuple[Point, Point, Point, Point] = ((200.0, 0.0), (440.0, 0.0), (440.0, 480.0), (200.0, 480.0))
     xm_per_px: PositiveFloat = 3.7 / 240
-    ym_per_px: PositiveFloat = 0.0624
+    ym_per_px: PositiveFloat = 0.0616
 
     @model_validator(mode="after")
     def _check_shapes(self) -> BirdseyeConfig:
@@ -137,7 +137,7 @@ class FitConfig(_Section):
 class TrackingConfig(_Section):
     """Across frames: sanity checks, smoothing, re-detection."""
 
-    min_width_m: PositiveFloat = 2.8
+    min_width_m: PositiveFloat = 2.5
     max_width_m: PositiveFloat = 4.6
     max_width_change_m: PositiveFloat = 0.7
     max_parallel_diff_m: PositiveFloat = 0.9

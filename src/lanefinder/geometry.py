@@ -93,7 +93,7 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitConfig,
         coeffs = _lstsq_fit(y, x, w, degree)
     r = x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2])
     residual = float(np.sqrt(np.average(r * r, weights=w)))
-    support = min(1.0, n / 600.0)
+    support = min(1.0, n / 300.0)
     quality = 1.0 / (1.0 + (residual / 6.0) ** 2)
     confidence = float(np.clip(math.sqrt(min(1.0, span / 0.6)) * support * quality, 0.0, 1.0))
     return LineFit(coeffs, n, residual, span, confidence)

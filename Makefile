@@ -1,0 +1,35 @@
+# lanefinder: `make demo` and `make test` work on a fresh machine with Python >= 3.10.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+CLIP   := data/clips/project_37-47s.mp4
+
+.PHONY: install demo test lint check-videos clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/lanefinder video $(CLIP) -o output/demo.mp4 --telemetry output/demo.csv \
+		--contact-sheet output/demo_sheet.png
+	$(BIN)/lanefinder plot output/demo.csv -o output/demo_plot.png
+	$(BIN)/lanefinder image data/test_images -o output/images --stages output/stages
+	@echo "demo outputs are in output/"
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests scripts benchmarks
+
+check-videos: $(STAMP)
+	$(BIN)/python scripts/check_videos.py
+
+clean:
+	rm -rf output .pytest_cache

@@ -1,0 +1,124 @@
+"""The command line: real outcomes, and bad input ends in one line (never a traceback)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from conftest import CAL, TEST_IMAGES
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "lanefinder", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=300)
+
+
+def assert_one_line_error(p: subprocess.CompletedProcess, *needles: str) -> None:
+    assert p.returncode != 0
+    assert "Traceback" not in p.stderr
+    err = p.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("lanefinder: error:"), p.stderr
+    for n in needles:
+        assert n in err[0], err[0]
+
+
+def test_image_command_writes_annotated_images_and_results(tmp_path):
+    p = run("image", str(TEST_IMAGES / "test3.jpg"), str(TEST_IMAGES / "straight_lines1.jpg"),
+            "-o", str(tmp_path / "out"), "--stages", str(tmp_path / "stages"))
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "out" / "test3.jpg").is_file()
+    rows = [json.loads(x) for x in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+    assert [r["left_found"] and r["right_found"] for r in rows] == [True, True]
+    stages = sorted(f.name for f in (tmp_path / "stages").iterdir())
+    assert len(stages) == 12 and "test3_5_windows.png" in stages and "test3_1_undistorted.png" in stages
+
+
+def test_calibrate_command(tmp_path):
+    p = run("calibrate", str(CAL), "-o", str(tmp_path / "cam.json"))
+    assert p.returncode == 0, p.stderr
+    assert "RMS reprojection error" in p.stdout and "calibration15.jpg" in p.stdout
+    cam = json.loads((tmp_path / "cam.json").read_text())
+    assert len(cam["views"]) == 20 and cam["rms_px"] < 1.2
+
+
+def test_config_round_trip(tmp_path):
+    p = run("config", "--default")
+    assert p.returncode == 0 and "[threshold]" in p.stdout
+    cfg = tmp_path / "my.toml"
+    cfg.write_text(p.stdout.replace('strategy = "ridge"', 'strategy = "color"'))
+    p = run("config", "--check", str(cfg), "--format", "json")
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["threshold"]["strategy"] == "color"
+    yml = run("config", "--default", "--format", "yaml")
+    assert yml.returncode == 0 and "birdseye:" in yml.stdout
+
+
+def test_missing_image(tmp_path):
+    assert_one_line_error(run("image", str(tmp_path / "nope.jpg"), "-o", str(tmp_path)), "not found")
+
+
+def test_unreadable_image(tmp_path):
+    bad = tmp_path / "bad.jpg"
+    bad.write_text("not a picture")
+    p = run("image", str(bad), "-o", str(tmp_path / "out"))
+    assert p.returncode != 0 and "Traceback" not in p.stderr
+    assert "cannot read image" in p.stderr
+    assert not (tmp_path / "out" / "bad.jpg").exists()
+
+
+def test_folder_with_no_images(tmp_path):
+    assert_one_line_error(run("image", str(tmp_path), "-o", str(tmp_path / "o")), "no images in folder")
+
+
+def test_frame_size_that_does_not_match_the_camera(tmp_path):
+    odd = tmp_path / "square.png"
+    cv2.imwrite(str(odd), np.zeros((500, 500, 3), np.uint8))
+    p = run("image", str(odd), "-o", str(tmp_path / "out"))
+    assert p.returncode != 0 and "Traceback" not in p.stderr and "aspect ratio" in p.stderr
+    assert not (tmp_path / "out" / "square.jpg").exists()
+
+
+def test_no_chessboard_in_any_photo(tmp_path):
+    assert_one_line_error(run("calibrate", str(TEST_IMAGES), "-o", str(tmp_path / "c.json")),
+                          "no 9x6 chessboard was found")
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_black_frame_is_reported_as_no_lane(tmp_path):
+    black = tmp_path / "black.png"
+    cv2.imwrite(str(black), np.zeros((720, 1280, 3), np.uint8))
+    p = run("image", str(black), "-o", str(tmp_path / "out"))
+    assert p.returncode == 0 and "Traceback" not in p.stderr
+    row = json.loads((tmp_path / "out" / "results.jsonl").read_text())
+    assert row["left_found"] is False and row["radius_m"] is None
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ("[search]\nn_windows = 0\n", "search.n_windows"),
+        ("[threshold]\nstrategy = \"magic\"\n", "threshold.strategy"),
+        ("[tracking]\nmin_widht_m = 3\n", "tracking.min_widht_m: unknown key"),
+        ("[birdseye]\nxm_per_px = -1\n", "birdseye.xm_per_px"),
+    ],
+)
+def test_invalid_config_value_names_the_key(tmp_path, text, key):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    assert_one_line_error(run("image", str(TEST_IMAGES / "test1.jpg"), "-c", str(cfg), "-o", str(tmp_path)), key)
+
+
+def test_config_that_is_not_toml(tmp_path):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[search\n")
+    assert_one_line_error(run("config", "--check", str(cfg)), "not valid TOML")
+
+
+def test_bad_board_argument(tmp_path):
+    assert_one_line_error(run("calibrate", str(CAL), "--board", "nine", "-o", str(tmp_path / "c.json")), "--board")

@@ -1,0 +1,106 @@
+"""The whole single-image pipeline on the 8 Udacity test images, and the sign conventions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lanefinder.config import Config, FitConfig
+from lanefinder.geometry import Scale, curvature_per_m, lane_geometry, m_to_px, px_to_m, radius_from_curvature
+from lanefinder.pipeline import LaneFinder
+
+# Measured (see the closing note of the foundation issue): widths 3.60-4.08 m, offsets
+# -0.06 to -0.40 m.  The lanes are 12 ft (3.66 m) wide, the road widens a little on the
+# bridge in test1/test5, and the car drives left of centre throughout.
+WIDTH_BOUNDS_M = (3.45, 4.2)
+OFFSET_BOUNDS_M = (-0.5, 0.05)
+
+
+@pytest.fixture(scope="module")
+def results(test_images):
+    finder = LaneFinder(Config())
+    out = {}
+    for name, img in test_images.items():
+        finder.reset()
+        out[name] = finder.process(img)
+    return out
+
+
+def test_both_lines_found_on_all_8_test_images(results):
+    assert len(results) == 8
+    for name, r in results.items():
+        assert r.left_found and r.right_found, name
+        assert WIDTH_BOUNDS_M[0] <= r.width_m <= WIDTH_BOUNDS_M[1], (name, r.width_m)
+        assert OFFSET_BOUNDS_M[0] <= r.offset_m <= OFFSET_BOUNDS_M[1], (name, r.offset_m)
+        assert r.left_conf > 0.4 and r.right_conf > 0.4
+
+
+def test_straight_images_report_a_large_radius(results):
+    for name in ("straight_lines1", "straight_lines2"):
+        r = results[name]
+        assert r.radius_m > 2000 and np.isfinite(r.radius_m)
+        assert r.straight
+
+
+def test_curved_images_report_highway_radii(results):
+    for name in ("test1", "test2", "test3", "test4", "test5", "test6"):
+        assert 300 < results[name].radius_m < 2000, name
+
+
+SCALE = Scale(xm_per_px=3.7 / 240, ym_per_px=0.0616, height_px=480, car_x_px=320.0)
+
+
+def _fit_px(x_bottom: float, a: float = 0.0) -> np.ndarray:
+    # x = a*y^2 + b*y + c with x(480) = x_bottom and no slope at the bottom.
+    return np.array([a, -2 * a * 480, x_bottom + a * 480 * 480])
+
+
+def test_offset_sign_positive_means_car_right_of_centre():
+    # Lines at 170 and 410: the lane centre (290) is left of the car (320) -> car right of centre.
+    g = lane_geometry(px_to_m(_fit_px(170), SCALE), px_to_m(_fit_px(410), SCALE), FitConfig())
+    assert g.offset_m == pytest.approx(30 * 3.7 / 240)
+    assert g.offset_m > 0
+    assert g.width_m == pytest.approx(3.7)
+
+
+def test_curvature_sign_positive_means_bending_right():
+    # a > 0: going up the image (away from the car), x = a*(y - 480)^2 + ... grows -> bends right.
+    right_bend = px_to_m(_fit_px(200, a=0.0005), SCALE)
+    assert curvature_per_m(right_bend) > 0
+    assert curvature_per_m(px_to_m(_fit_px(200, a=-0.0005), SCALE)) < 0
+
+
+def test_metre_and_pixel_fits_convert_both_ways():
+    px = np.array([1.3e-4, -0.21, 233.0])
+    np.testing.assert_allclose(m_to_px(px_to_m(px, SCALE), SCALE), px, rtol=1e-9, atol=1e-9)
+    m = px_to_m(px, SCALE)
+    # x in metres at d = 0 is the bottom row's x relative to the car.
+    x_bottom = px[0] * 480**2 + px[1] * 480 + px[2]
+    assert m[2] == pytest.approx((x_bottom - 320) * 3.7 / 240)
+
+
+def test_radius_is_never_negative_nan_or_inf():
+    for k in (0.0, -0.0, 1e-12, -1e-3, 1e-3, float("nan"), float("inf")):
+        r = radius_from_curvature(k, 10000)
+        assert np.isfinite(r) and 0 < r <= 10000
+    assert radius_from_curvature(-1e-3, 10000) == pytest.approx(1000)
+
+
+def test_a_black_frame_is_no_lane_not_a_crash():
+    r = LaneFinder(Config()).process(np.zeros((720, 1280, 3), np.uint8))
+    assert not r.lane_found and not r.left_found and not r.right_found
+    assert r.state == "lost"
+
+
+def test_a_grey_frame_with_no_markings_is_no_lane():
+    r = LaneFinder(Config()).process(np.full((720, 1280, 3), 120, np.uint8))
+    assert not r.lane_found
+
+
+def test_processing_a_640x360_frame(test_images):
+    import cv2
+
+    small = cv2.resize(test_images["test3"], (640, 360), interpolation=cv2.INTER_AREA)
+    r = LaneFinder(Config()).process(small)
+    assert r.left_found and r.right_found
+    assert 3.45 < r.width_m < 4.0

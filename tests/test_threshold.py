@@ -1,0 +1,54 @@
+"""Thresholds: each strategy finds the markings; the default shrugs off shadows and seams."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lanefinder.config import Config, ThresholdConfig
+from lanefinder.pipeline import LaneFinder
+from lanefinder.threshold import threshold
+
+
+@pytest.fixture(scope="module")
+def warped(test_images):
+    be = LaneFinder(Config()).birdseye((1280, 720))
+    return {k: be.warp(v) for k, v in test_images.items()}
+
+
+def _near_lines(mask: np.ndarray, xs=(200, 440), half: int = 15) -> float:
+    near = sum(int(mask[:, x - half:x + half].sum()) for x in xs)
+    return near / max(1, int(mask.sum()))
+
+
+@pytest.mark.parametrize("strategy", ["ridge", "sobel-hls", "color", "ycrcb"])
+def test_every_strategy_finds_the_straight_lines(strategy, warped):
+    cfg = ThresholdConfig(strategy=strategy)
+    mask = threshold(warped["straight_lines1"], cfg)
+    assert mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 1}
+    # Both line columns hold markings over much of the height.
+    for x in (200, 440):
+        rows_hit = (mask[:, x - 12:x + 12].sum(axis=1) > 0).mean()
+        assert rows_hit > (0.2 if x == 440 else 0.8), (strategy, x, rows_hit)  # right: dashed
+
+
+def test_ridge_is_mostly_lines(warped):
+    mask = threshold(warped["straight_lines1"], ThresholdConfig())
+    assert _near_lines(mask) > 0.8  # measured 0.9
+
+
+def test_ridge_ignores_shadow_edges_and_seams():
+    road = np.full((200, 400, 3), 90, np.uint8)
+    road[:, 100:110] = 200  # a white line
+    road[:, 250:] = 140  # a pavement seam: a one-sided step
+    road[100:, :] = (road[100:, :] * 0.35).astype(np.uint8)  # a hard shadow over the lower half
+    mask = threshold(road, ThresholdConfig())
+    assert mask[:, 100:110].mean() > 0.95  # the line, in sun and in shade
+    assert mask[:, 120:400].sum() == 0  # no seam, no shadow edge
+
+
+def test_ridge_finds_yellow_on_pale_concrete():
+    road = np.full((100, 300, 3), (170, 180, 185), np.uint8)  # BGR pale concrete
+    road[:, 150:158] = (40, 190, 220)  # yellow paint, little brighter than the concrete
+    mask = threshold(road, ThresholdConfig())
+    assert mask[:, 150:158].mean() > 0.9 and mask[:, :140].sum() == 0

@@ -1,0 +1,100 @@
+"""Tracking logic on synthetic sequences of metre fits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lanefinder.config import TrackingConfig
+from lanefinder.tracking import LOST, REDETECT, TRACKING, LaneTracker, Measurement
+
+LEFT = np.array([2e-4, 0.01, -1.8])
+RIGHT = np.array([2e-4, 0.01, 1.9])
+
+
+def meas(c: np.ndarray, conf: float = 0.9) -> Measurement:
+    return Measurement(np.asarray(c, float), conf)
+
+
+@pytest.fixture
+def tracker() -> LaneTracker:
+    return LaneTracker(TrackingConfig(), lookahead_m=29.6)
+
+
+def test_steady_lane_is_tracked(tracker):
+    first = tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    assert first.state == REDETECT and first.left_found and first.right_found
+    assert not tracker.needs_blind_search
+    for _ in range(10):
+        t = tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    assert t.state == TRACKING and t.misses == 0
+    np.testing.assert_allclose(t.left_m, LEFT, atol=1e-9)
+
+
+def test_an_outlier_frame_is_rejected_and_the_lane_held(tracker):
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    bad_left = LEFT + [0, 0, 1.2]  # a 1.2 m jump of the left line, lane width 2.5 m
+    t = tracker.update(meas(bad_left), meas(RIGHT), blind=False)
+    assert not t.left_found and t.right_found
+    assert "left-jump" in t.checks
+    # The left line is inferred from the right one and the tracked width, not from the outlier.
+    assert t.left_inferred
+    assert t.left_m[2] == pytest.approx(-1.8, abs=0.05)
+
+
+def test_after_n_misses_the_lane_is_found_again_blind(tracker):
+    cfg = tracker.cfg
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    for i in range(cfg.max_misses):
+        t = tracker.update(None, None, blind=False)
+        assert t.misses == i + 1 and t.has_lane  # held
+    assert tracker.needs_blind_search
+    # A far-away lane is accepted blind (no jump check once the track is stale).
+    shifted_l, shifted_r = [*LEFT, 0, 0, 1.0], [*RIGHT, 0, 0, 1.0]
+    t = tracker.update(meas(shifted_l), meas(shifted_r), blind=True)
+    assert t.state == REDETECT and t.left_found and t.right_found
+    assert t.left_m[2] == pytest.approx(-0.8)
+
+
+def test_one_line_lost_is_inferred_from_the_other_and_the_width(tracker):
+    for _ in range(5):
+        tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    t = tracker.update(meas(LEFT), None, blind=False)
+    assert t.left_found and not t.right_found and t.right_inferred
+    assert t.right_m[2] - t.left_m[2] == pytest.approx(3.7, abs=0.05)
+    np.testing.assert_allclose(t.right_m[:2], LEFT[:2], atol=1e-6)
+
+
+def test_nothing_for_long_says_lost(tracker):
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    states = [tracker.update(None, None, blind=tracker.needs_blind_search).state for _ in range(20)]
+    assert states[-1] == LOST
+    assert LOST not in states[: tracker.cfg.lost_after]
+
+
+def test_implausible_pairs_are_rejected(tracker):
+    # Too narrow: 1.5 m.
+    t = tracker.update(meas(LEFT), meas([*LEFT, 0, 0, 1.5]), blind=True)
+    assert "width" in t.checks and not (t.left_found and t.right_found)
+    tracker.reset()
+    # Not parallel: the right line swings 2 m out at 30 m.
+    t = tracker.update(meas(LEFT), meas([*RIGHT, 0.0025, 0, 0]), blind=True)
+    assert {"parallel", "curvature"} & set(t.checks)
+
+
+def test_low_confidence_lines_are_not_used(tracker):
+    t = tracker.update(meas(LEFT, 0.1), meas(RIGHT, 0.9), blind=True)
+    assert not t.left_found and t.right_found and "left-confidence" in t.checks
+
+
+def test_smoothing_damps_wobble_but_follows_a_bend(tracker):
+    rng = np.random.default_rng(0)
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    # Wobble: +-3 cm noise on the position is damped.
+    out = [tracker.update(meas([*LEFT, 0, 0, n]), meas([*RIGHT, 0, 0, n]), blind=False).left_m[2]
+           for n in rng.normal(0, 0.03, 50)]
+    assert np.std(out) < 0.03 * 0.8
+    # A bend tightening over 10 frames (25 fps, 0.4 s) is followed with little lag.
+    for k in np.linspace(2e-4, 4e-3, 10):
+        t = tracker.update(meas([k, 0.01, -1.8]), meas([k, 0.01, 1.9]), blind=False)
+    assert t.left_m[0] == pytest.approx(4e-3, rel=0.25)

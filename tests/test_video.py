@@ -1,0 +1,140 @@
+"""The video job: output, telemetry, sub-clips, damaged input and interrupted runs."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import av
+import numpy as np
+import pytest
+
+from lanefinder.errors import LaneFinderError
+from lanefinder.telemetry import FIELDS, read_telemetry
+from lanefinder.video import VideoInfo, frames
+from lanefinder.videojob import process_video
+
+from conftest import CLIPS
+
+PROJECT = CLIPS / "project_37-47s.mp4"
+CHALLENGE = CLIPS / "challenge_3-7s.mp4"
+
+
+def count_frames(path) -> int:
+    with av.open(str(path)) as c:
+        return sum(1 for _ in c.decode(video=0))
+
+
+@pytest.fixture(scope="module")
+def run_csv(tmp_path_factory):
+    out = tmp_path_factory.mktemp("video")
+    summary = process_video(CHALLENGE, out / "out.mp4", end_s=1.0, telemetry=out / "t.csv",
+                            contact_sheet_path=out / "sheet.png", debug=True, progress=False)
+    return out, summary
+
+
+def test_video_output_matches_input(run_csv):
+    out, summary = run_csv
+    info = VideoInfo.from_path(out / "out.mp4")
+    assert (info.width, info.height) == (1280, 720)
+    assert info.fps == VideoInfo.from_path(CHALLENGE).fps  # 29.97 kept exactly
+    assert info.codec == "h264"
+    assert count_frames(out / "out.mp4") == summary.frames == 30
+    assert summary.tracked == 30
+
+
+def test_telemetry_rows_and_fields(run_csv):
+    out, summary = run_csv
+    rows = read_telemetry(out / "t.csv")
+    assert len(rows) == summary.frames
+    assert list(rows[0]) == FIELDS
+    r = rows[10]
+    assert r["h_samples"] == list(range(400, 720, 10))
+    assert len(r["left_x"]) == len(r["right_x"]) == 32
+    # Above the horizon the lines are absent (-2); near the car both are in the frame, left < right.
+    assert r["left_x"][0] == -2 and r["right_x"][0] == -2
+    i = r["h_samples"].index(650)
+    assert 0 <= r["left_x"][i] < r["right_x"][i] < 1280
+    assert len(r["left_fit_m"]) == 3 and r["state"] in ("tracking", "re-detect", "lost")
+    assert rows[0]["time_s"] == pytest.approx(0.0) and rows[-1]["frame"] == 29
+
+
+def test_contact_sheet_and_plot(run_csv, tmp_path):
+    import cv2
+
+    out, _ = run_csv
+    sheet = cv2.imread(str(out / "sheet.png"))
+    assert sheet is not None and sheet.shape[1] > 1000
+    p = subprocess.run([sys.executable, "-m", "lanefinder", "plot", str(out / "t.csv"), "-o", str(tmp_path / "p.png")],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert cv2.imread(str(tmp_path / "p.png")).shape[0] > 300
+
+
+def test_jsonl_telemetry_and_sub_clip_timing(tmp_path):
+    summary = process_video(PROJECT, tmp_path / "o.mp4", start_s=2.0, end_s=3.0, telemetry=tmp_path / "t.jsonl",
+                            progress=False)
+    rows = read_telemetry(tmp_path / "t.jsonl")
+    assert summary.frames == len(rows) == 25 == count_frames(tmp_path / "o.mp4")
+    assert rows[0]["frame"] == 50 and rows[0]["time_s"] == pytest.approx(2.0)
+    assert rows[-1]["time_s"] == pytest.approx(2.96)
+    assert all(r["left_found"] and r["right_found"] for r in rows)
+
+
+def test_frames_generator_seeks(tmp_path):
+    got = [(f.index, round(f.time_s, 2)) for f in frames(PROJECT, 4.0, 4.2)]
+    assert got == [(100, 4.0), (101, 4.04), (102, 4.08), (103, 4.12), (104, 4.16)]
+
+
+def test_never_writes_over_its_input(tmp_path):
+    clip = tmp_path / "clip.mp4"
+    clip.write_bytes(CHALLENGE.read_bytes())
+    with pytest.raises(LaneFinderError, match="refusing to overwrite"):
+        process_video(clip, clip, progress=False)
+    assert clip.read_bytes() == CHALLENGE.read_bytes()
+
+
+def test_corrupt_video_is_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(np.random.default_rng(0).integers(0, 255, 200_000, dtype=np.uint8).tobytes())
+    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(bad), "-o", str(tmp_path / "o.mp4")],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert p.stderr.startswith("lanefinder: error: cannot open video")
+    assert not (tmp_path / "o.mp4").exists()
+
+
+def test_truncated_video_gives_a_partial_result(tmp_path):
+    cut = tmp_path / "cut.mp4"
+    data = CHALLENGE.read_bytes()
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
+                        "--telemetry", str(tmp_path / "t.csv"), "--quiet"], capture_output=True, text=True)
+    assert "Traceback" not in p.stderr
+    if p.returncode == 0:  # a partial result: playable, with matching telemetry
+        n = count_frames(tmp_path / "o.mp4")
+        assert 0 < n < 120 and len(read_telemetry(tmp_path / "t.csv")) == n
+    else:
+        assert p.returncode == 2 and p.stderr.startswith("lanefinder: error:")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_interrupted_run_leaves_a_playable_video_and_matching_telemetry(tmp_path, sig):
+    out, tele = tmp_path / "o.mp4", tmp_path / "t.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(PROJECT), "-o", str(out),
+                             "--telemetry", str(tele), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    # Wait until frames are being written (the hidden partial file grows), then interrupt.
+    deadline = time.time() + 60
+    while time.time() < deadline and not any(f.stat().st_size > 200_000 for f in tmp_path.glob(".o.*")):
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert "Traceback" not in err
+    assert proc.returncode == 130, err
+    n = count_frames(out)
+    assert 0 < n < 250
+    assert len(read_telemetry(tele)) == n
+    assert not list(tmp_path.glob(".*"))  # no temporary files left behind
