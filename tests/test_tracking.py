@@ -33,7 +33,7 @@ def test_steady_lane_is_tracked(tracker):
 
 def test_an_outlier_frame_is_rejected_and_the_lane_held(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    bad_left = LEFT + [0, 0, 1.2]  # a 1.2 m jump of the left line, lane width 2.5 m
+    bad_left = LEFT + np.array([0, 0, 1.2])  # a 1.2 m jump of the left line, lane width 2.5 m
     t = tracker.update(meas(bad_left), meas(RIGHT), blind=False)
     assert not t.left_found and t.right_found
     assert "left-jump" in t.checks
@@ -50,7 +50,7 @@ def test_after_n_misses_the_lane_is_found_again_blind(tracker):
         assert t.misses == i + 1 and t.has_lane  # held
     assert tracker.needs_blind_search
     # A far-away lane is accepted blind (no jump check once the track is stale).
-    shifted_l, shifted_r = [*LEFT, 0, 0, 1.0], [*RIGHT, 0, 0, 1.0]
+    shifted_l, shifted_r = LEFT + np.array([0, 0, 1.0]), RIGHT + np.array([0, 0, 1.0])
     t = tracker.update(meas(shifted_l), meas(shifted_r), blind=True)
     assert t.state == REDETECT and t.left_found and t.right_found
     assert t.left_m[2] == pytest.approx(-0.8)
@@ -74,11 +74,11 @@ def test_nothing_for_long_says_lost(tracker):
 
 def test_implausible_pairs_are_rejected(tracker):
     # Too narrow: 1.5 m.
-    t = tracker.update(meas(LEFT), meas([*LEFT, 0, 0, 1.5]), blind=True)
+    t = tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 1.5])), blind=True)
     assert "width" in t.checks and not (t.left_found and t.right_found)
     tracker.reset()
     # Not parallel: the right line swings 2 m out at 30 m.
-    t = tracker.update(meas(LEFT), meas([*RIGHT, 0.0025, 0, 0]), blind=True)
+    t = tracker.update(meas(LEFT), meas(RIGHT + np.array([0.0025, 0, 0])), blind=True)
     assert {"parallel", "curvature"} & set(t.checks)
 
 
@@ -91,7 +91,7 @@ def test_smoothing_damps_wobble_but_follows_a_bend(tracker):
     rng = np.random.default_rng(0)
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     # Wobble: +-3 cm noise on the position is damped.
-    out = [tracker.update(meas([*LEFT, 0, 0, n]), meas([*RIGHT, 0, 0, n]), blind=False).left_m[2]
+    out = [tracker.update(meas(LEFT + np.array([0, 0, n])), meas(RIGHT + np.array([0, 0, n])), blind=False).left_m[2]
            for n in rng.normal(0, 0.03, 50)]
     assert np.std(out) < 0.03 * 0.8
     # A bend tightening over 10 frames (25 fps, 0.4 s) is followed with little lag.

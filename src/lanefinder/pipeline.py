@@ -60,6 +60,14 @@ class LaneResult:
         return self.left_fit_px is not None and self.right_fit_px is not None
 
 
+def _conf(fit: LineFit | None) -> float:
+    return -1.0 if fit is None else fit.confidence
+
+
+def _weak(fit: LineFit | None, cfg: Config) -> bool:
+    return fit is None or fit.confidence < cfg.tracking.min_confidence
+
+
 @cache
 def _udacity_camera() -> CameraModel:
     path = resources.files("lanefinder") / "data" / "udacity_camera.json"
@@ -145,13 +153,19 @@ class LaneFinder:
             found = search_around(binary, m_to_px(tracker.left, scale), m_to_px(tracker.right, scale),
                                   cfg.search.around_margin_px, pixels)
         height = be.size[1]
-        if not blind and (found.left.count < cfg.fit.min_pixels or found.right.count < cfg.fit.min_pixels):
-            # Lost a line around the track: look for it blind in the same frame.
-            again = blind_search(binary, cfg.search, be.car_x_px, pixels)
-            found = SearchResult(found.left if found.left.count >= cfg.fit.min_pixels else again.left,
-                                 found.right if found.right.count >= cfg.fit.min_pixels else again.right,
-                                 found.method + "+windows", again.histogram, again.bases_px, found.band_px)
         fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, cfg.fit)
+        if not blind and (_weak(fit_l, cfg) or _weak(fit_r, cfg)):
+            # A line went weak around the track: search blind in the same frame and keep, per
+            # line, whichever search gives the more confident fit.
+            again = blind_search(binary, cfg.search, be.car_x_px, pixels)
+            again_l, again_r = fit_lane((again.left.x, again.left.y), (again.right.x, again.right.y), height, cfg.fit)
+            use_l = _conf(again_l) > _conf(fit_l)
+            use_r = _conf(again_r) > _conf(fit_r)
+            if use_l or use_r:
+                found = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
+                                     found.method + "+windows", again.histogram, again.bases_px, found.band_px)
+                fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height,
+                                        cfg.fit)
         track = tracker.update(self._measure(fit_l, scale), self._measure(fit_r, scale), blind)
         return self._result(track, fit_l, fit_r, found, binary, scale)
 

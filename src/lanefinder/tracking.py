@@ -68,6 +68,10 @@ class LaneTracker:
     right: np.ndarray | None = None
     width_m: float | None = None
     misses: int = 0
+    # Frames in a row each line has been inferred rather than measured: an inferred line is a
+    # guess, so a measurement of it is not held to the jump limit.
+    left_guessed: int = 0
+    right_guessed: int = 0
     stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
 
     @property
@@ -79,6 +83,7 @@ class LaneTracker:
         self.left = self.right = None
         self.width_m = None
         self.misses = 0
+        self.left_guessed = self.right_guessed = 0
 
     # -- checks -------------------------------------------------------------------------
     def _pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
@@ -118,10 +123,10 @@ class LaneTracker:
             checks.append("left-confidence")
         if right is not None and not ok_r:
             checks.append("right-confidence")
-        if ok_l and not self._jump_ok(left.coeffs_m, self.left):
+        if ok_l and not self._jump_ok(left.coeffs_m, None if self.left_guessed else self.left):
             ok_l = False
             checks.append("left-jump")
-        if ok_r and not self._jump_ok(right.coeffs_m, self.right):
+        if ok_r and not self._jump_ok(right.coeffs_m, None if self.right_guessed else self.right):
             ok_r = False
             checks.append("right-jump")
         conf_l = left.confidence if left is not None else 0.0
@@ -159,9 +164,14 @@ class LaneTracker:
             meas_r = right.coeffs_m
             meas_l = self._shift(meas_r, -width) if self.left is None or blind else self._parallel_to(meas_r, -width)
         fresh = self.left is None or self.right is None or self.needs_blind_search
-        self.left = meas_l.copy() if fresh else self._smooth(self.left, meas_l, conf_l if ok_l else 0.5 * conf_r)
-        self.right = meas_r.copy() if fresh else self._smooth(self.right, meas_r, conf_r if ok_r else 0.5 * conf_l)
+        # A line seen again after being guessed snaps to the measurement.
+        snap_l = fresh or (ok_l and self.left_guessed > 0)
+        snap_r = fresh or (ok_r and self.right_guessed > 0)
+        self.left = meas_l.copy() if snap_l else self._smooth(self.left, meas_l, conf_l if ok_l else 0.5 * conf_r)
+        self.right = meas_r.copy() if snap_r else self._smooth(self.right, meas_r, conf_r if ok_r else 0.5 * conf_l)
         self.misses = 0
+        self.left_guessed = 0 if ok_l else self.left_guessed + 1
+        self.right_guessed = 0 if ok_r else self.right_guessed + 1
         self.stats["tracked"] += 1
         if blind:
             self.stats["redetect"] += 1
