@@ -143,6 +143,7 @@ class TrackingConfig(_Section):
     max_parallel_diff_m: PositiveFloat = 0.9
     max_curvature_diff: PositiveFloat = 0.004
     max_offset_jump_m: PositiveFloat = 0.4
+    max_offset_m: PositiveFloat = 1.2
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
     smoothing: Fraction = 0.5

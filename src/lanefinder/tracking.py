@@ -94,6 +94,8 @@ class LaneTracker:
         w_mid = _x_at(rm, self.lookahead_m / 2) - _x_at(lm, self.lookahead_m / 2)
         if not c.min_width_m <= w_near <= c.max_width_m:
             problems.append("width")
+        if not self._offset_ok(lm, rm):
+            problems.append("offset")
         if max(abs(w_far - w_near), abs(w_mid - w_near)) > c.max_parallel_diff_m:
             problems.append("parallel")
         if abs(curvature_per_m(lm) - curvature_per_m(rm)) > c.max_curvature_diff:
@@ -102,6 +104,10 @@ class LaneTracker:
         if tracked_width and abs(w_near - self.width_m) > c.max_width_change_m:
             problems.append("width-change")
         return problems
+
+    def _offset_ok(self, lm: np.ndarray, rm: np.ndarray) -> bool:
+        """The car (x = 0) is inside the lane, at most ``max_offset_m`` from its centre."""
+        return lm[2] < 0 < rm[2] and abs(lm[2] + rm[2]) / 2 <= self.cfg.max_offset_m
 
     def _jump_ok(self, meas: np.ndarray, tracked: np.ndarray | None) -> bool:
         if tracked is None or self.misses >= self.cfg.max_misses:
@@ -163,6 +169,10 @@ class LaneTracker:
         else:
             meas_r = right.coeffs_m
             meas_l = self._shift(meas_r, -width) if self.left is None or blind else self._parallel_to(meas_r, -width)
+        if not self._offset_ok(meas_l, meas_r):
+            # One line seen, and the lane it implies would not hold the car: not this lane.
+            checks.append("offset")
+            return self._miss(checks, conf_l, conf_r, blind)
         fresh = self.left is None or self.right is None or self.needs_blind_search
         # A line seen again after being guessed snaps to the measurement.
         snap_l = fresh or (ok_l and self.left_guessed > 0)
