@@ -5,12 +5,12 @@
 1. Threshold each straight-road image in a first bird's-eye view, map the marking pixels of
    both lines back to undistorted pixels, and fit a straight line x = m*y + c to each.
 2. Average the two images' lines; the src trapezoid is where they cross rows --top and
-   --bottom; dst puts them at x = 200 and 440 of a 640x480 view.
-3. xm_per_px: the lane (3.7 m between line centres) spans 240 px.
+   --bottom; dst puts them at x = 125 and 275 of a 400x300 view.
+3. xm_per_px: the lane (3.7 m between line centres) spans 150 px.
 4. ym_per_px: camera geometry.  With the vanishing point row y_v and focal length f_y, a
    ground point seen at row y lies Z = f_y * H / (y - y_v) ahead, and the lane (width W)
    spans w(y) = f_y * W / Z pixels, so the camera height is H = W * (y - y_v) / w(y).  The
-   480 rows cover Z(bottom) .. Z(top); ym = (Z_top - Z_bottom) / 480.  The dash period in
+   300 rows cover Z(bottom) .. Z(top); ym = (Z_top - Z_bottom) / 300.  The dash period in
    straight_lines1 (12 ft dashes + 36 ft gaps = 14.6 m, Caltrans) is printed as a check.
 """
 
@@ -39,11 +39,11 @@ def main() -> None:
     fits = []
     for name in ("straight_lines1", "straight_lines2"):
         img = cv2.imread(str(ROOT / "data" / "test_images" / f"{name}.jpg"))
-        mask = threshold(be.warp(img), Config().threshold)
+        mask = threshold(be.warp(img), Config().threshold, be.xm_per_px)
         lines = []
-        for x0 in (200, 440):
-            ys, xs = np.nonzero(mask[:, x0 - 30:x0 + 30])
-            pts = be.to_undistorted(np.column_stack([xs + x0 - 30, ys]).astype(float))
+        for x0 in (125, 275):
+            ys, xs = np.nonzero(mask[:, x0 - 20:x0 + 20])
+            pts = be.to_undistorted(np.column_stack([xs + x0 - 20, ys]).astype(float))
             lines.append(np.polyfit(pts[:, 1], pts[:, 0], 1))
         (m1, c1), (m2, c2) = lines
         yv = (c2 - c1) / (m1 - m2)
@@ -61,14 +61,14 @@ def main() -> None:
     z_bot, z_top = fy * height_m / (bot - yv), fy * height_m / (top - yv)
     print("src =", [(round(float(x), 1), y) for x, y in src])
     print(f"vanishing row {yv:.1f}; camera height {height_m:.3f} m; view covers {z_bot:.2f}-{z_top:.2f} m ahead")
-    print(f"xm_per_px = 3.7 / 240 = {3.7 / 240:.6f}")
-    print(f"ym_per_px = {(z_top - z_bot) / 480:.5f}")
+    print(f"xm_per_px = 3.7 / 150 = {3.7 / 150:.6f}")
+    print(f"ym_per_px = {(z_top - z_bot) / 300:.5f}")
     # Check: dash period of the right line in straight_lines1.
     img = cv2.imread(str(ROOT / "data" / "test_images" / "straight_lines1.jpg"))
-    col = threshold(be.warp(img), Config().threshold)[:, 425:455].max(axis=1).astype(float)
+    col = threshold(be.warp(img), Config().threshold, be.xm_per_px)[:, 265:285].max(axis=1).astype(float)
     col -= col.mean()
     ac = np.correlate(col, col, "full")[col.size - 1:]
-    lag = int(np.argmax(ac[120:400])) + 120
+    lag = int(np.argmax(ac[75:250])) + 75
     print(f"check: dash period {lag} px in straight_lines1 -> {14.63 / lag:.5f} m/px if 14.63 m (12 ft + 36 ft)")
 
 

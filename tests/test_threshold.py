@@ -16,7 +16,7 @@ def warped(test_images):
     return {k: be.warp(v) for k, v in test_images.items()}
 
 
-def _near_lines(mask: np.ndarray, xs=(200, 440), half: int = 15) -> float:
+def _near_lines(mask: np.ndarray, xs=(125, 275), half: int = 10) -> float:
     near = sum(int(mask[:, x - half:x + half].sum()) for x in xs)
     return near / max(1, int(mask.sum()))
 
@@ -27,9 +27,9 @@ def test_every_strategy_finds_the_straight_lines(strategy, warped):
     mask = threshold(warped["straight_lines1"], cfg)
     assert mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 1}
     # Both line columns hold markings over much of the height.
-    for x in (200, 440):
-        rows_hit = (mask[:, x - 12:x + 12].sum(axis=1) > 0).mean()
-        assert rows_hit > (0.2 if x == 440 else 0.8), (strategy, x, rows_hit)  # right: dashed
+    for x in (125, 275):
+        rows_hit = (mask[:, x - 8:x + 8].sum(axis=1) > 0).mean()
+        assert rows_hit > (0.2 if x == 275 else 0.8), (strategy, x, rows_hit)  # right: dashed
 
 
 def test_ridge_is_mostly_lines(warped):

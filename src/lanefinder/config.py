@@ -40,10 +40,10 @@ class BirdseyeConfig(_Section):
 
     reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
     src: tuple[Point, Point, Point, Point] = ((581.3, 460.0), (702.9, 460.0), (1034.0, 675.0), (280.5, 675.0))
-    size: tuple[PositiveInt, PositiveInt] = (640, 480)
-    dst: tuple[Point, Point, Point, Point] = ((200.0, 0.0), (440.0, 0.0), (440.0, 480.0), (200.0, 480.0))
-    xm_per_px: PositiveFloat = 3.7 / 240
-    ym_per_px: PositiveFloat = 0.0616
+    size: tuple[PositiveInt, PositiveInt] = (400, 300)
+    dst: tuple[Point, Point, Point, Point] = ((125.0, 0.0), (275.0, 0.0), (275.0, 300.0), (125.0, 300.0))
+    xm_per_px: PositiveFloat = 3.7 / 150
+    ym_per_px: PositiveFloat = 0.09853
 
     @model_validator(mode="after")
     def _check_shapes(self) -> BirdseyeConfig:
@@ -87,18 +87,17 @@ class YcrcbConfig(_Section):
 class RidgeConfig(_Section):
     """``ridge`` (default): a line is brighter (or yellower) than the road on *both* sides.
 
-    Horizontal top-hat of lightness and of Lab b in the bird's-eye image; a pixel is a
-    marking when its top-hat is above ``min_contrast`` and above ``rel_contrast`` times
-    the local road level, so shadows (which scale brightness) and pavement seams (one-sided
-    steps) do not pass.
+    Horizontal top-hat of lightness (green) and of yellowness (red - blue) in the bird's-eye image over a window
+    ``width_m`` wide; a pixel is a marking when its top-hat is above ``min_contrast`` and above
+    ``rel_contrast`` times the local road level, so shadows (which scale brightness) and
+    pavement seams (one-sided steps) do not pass.
     """
 
-    width_px: PositiveInt = 25
+    width_m: PositiveFloat = 0.4
     min_contrast: Byte = 12
     rel_contrast: Annotated[float, Field(ge=0)] = 0.18
-    yellow_min_contrast: Byte = 7
-    yellow_min_b: Byte = 138
-    max_lightness: Byte = 255
+    yellow_min_contrast: Byte = 18
+    yellow_min: Byte = 30
 
 
 class ThresholdConfig(_Section):
@@ -110,24 +109,28 @@ class ThresholdConfig(_Section):
 
 
 class SearchConfig(_Section):
-    """Finding line pixels in the bird's-eye binary."""
+    """Finding line pixels in the bird's-eye binary.  Sizes are in metres on the road and turn
+    into pixels through the bird's-eye scale, so they hold for any set-up."""
 
     method: Literal["windows", "segments"] = "windows"
     n_windows: Annotated[int, Field(ge=2, le=100)] = 12
-    margin_px: PositiveInt = 40
-    min_pixels: PositiveInt = 30
+    margin_m: PositiveFloat = 0.6
+    min_window_marking_m: PositiveFloat = 0.2
     histogram_fraction: Annotated[float, Field(gt=0, le=1)] = 0.5
-    around_margin_px: PositiveInt = 30
-    expected_width_px: PositiveFloat = 240.0
+    around_margin_m: PositiveFloat = 0.45
+    lane_width_m: PositiveFloat = 3.7
     width_tolerance: Annotated[float, Field(gt=0, lt=1)] = 0.22
+    marking_width_m: PositiveFloat = 0.15
 
 
 class FitConfig(_Section):
-    """Robust second-order fit x = a*y^2 + b*y + c (bird's-eye pixels)."""
+    """Robust second-order fit x = a*y^2 + b*y + c (bird's-eye pixels); sizes in metres."""
 
     robust_iterations: Annotated[int, Field(ge=0, le=10)] = 2
-    huber_px: PositiveFloat = 4.0
-    min_pixels: PositiveInt = 80
+    huber_m: PositiveFloat = 0.06
+    min_marking_m: PositiveFloat = 0.5
+    full_support_m: PositiveFloat = 1.9
+    residual_scale_m: PositiveFloat = 0.09
     min_span_fraction: Fraction = 0.25
     parallel: Fraction = 0.7
     max_radius_m: PositiveFloat = 10000.0

@@ -54,14 +54,45 @@ class Scale:
     car_x_px: float
 
 
+@dataclass(frozen=True)
+class FitParams:
+    """Fit settings in bird's-eye pixels (see :func:`fit_params`)."""
+
+    min_pixels: int
+    huber_px: float
+    support_pixels: float
+    residual_scale_px: float
+    robust_iterations: int
+    min_span_fraction: float
+    parallel: float
+
+
+def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
+    """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
+    per_m = marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
+    return FitParams(
+        min_pixels=max(6, round(cfg.min_marking_m * per_m)),
+        huber_px=cfg.huber_m / xm_per_px,
+        support_pixels=cfg.full_support_m * per_m,
+        residual_scale_px=cfg.residual_scale_m / xm_per_px,
+        robust_iterations=cfg.robust_iterations,
+        min_span_fraction=cfg.min_span_fraction,
+        parallel=cfg.parallel,
+    )
+
+
 def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
-    """Weighted polynomial fit of x(y), centred and scaled for conditioning; returns (a, b, c)."""
+    """Weighted least-squares polynomial x(y) via the normal equations, on y centred and
+    scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c."""
     y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
     t = (y - y0) / ys
-    cols = [t * t, t, np.ones_like(t)] if degree == 2 else [t, np.ones_like(t)]
-    sw = np.sqrt(w)
-    coef, *_ = np.linalg.lstsq(np.column_stack(cols) * sw[:, None], x * sw, rcond=None)
-    p, q, r = (coef if degree == 2 else np.r_[0.0, coef])
+    basis = np.stack([t * t, t, np.ones_like(t)] if degree == 2 else [t, np.ones_like(t)])
+    weighted = basis * w
+    try:
+        coef = np.linalg.solve(weighted @ basis.T, weighted @ x)
+    except np.linalg.LinAlgError:
+        coef, *_ = np.linalg.lstsq(basis.T * np.sqrt(w)[:, None], x * np.sqrt(w), rcond=None)
+    p, q, r = coef if degree == 2 else np.r_[0.0, coef]
     # Back from t = (y - y0)/ys to y.
     a = p / ys**2
     b = q / ys - 2 * p * y0 / ys**2
@@ -69,8 +100,8 @@ def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.n
     return np.array([a, b, c])
 
 
-def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitConfig,
-             max_points: int = 4000) -> LineFit | None:
+def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
+             max_points: int = 2000) -> LineFit | None:
     """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
 
     Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
@@ -93,14 +124,14 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitConfig,
         coeffs = _lstsq_fit(y, x, w, degree)
     r = x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2])
     residual = float(np.sqrt(np.average(r * r, weights=w)))
-    support = min(1.0, n / 300.0)
-    quality = 1.0 / (1.0 + (residual / 6.0) ** 2)
+    support = min(1.0, n / cfg.support_pixels)
+    quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
     confidence = float(np.clip(math.sqrt(min(1.0, span / 0.6)) * support * quality, 0.0, 1.0))
     return LineFit(coeffs, n, residual, span, confidence)
 
 
 def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.ndarray], height_px: int,
-             cfg: FitConfig) -> tuple[LineFit | None, LineFit | None]:
+             cfg: FitParams) -> tuple[LineFit | None, LineFit | None]:
     """Fit both lines; where both exist, pull their shapes towards each other.
 
     Lane lines are (nearly) parallel, so the shape (a, b) of each line moves a fraction

@@ -17,8 +17,8 @@ from .birdseye import BirdsEye, make_birdseye
 from .camera import CameraModel, load_camera
 from .config import Config
 from .errors import LaneFinderError
-from .geometry import LineFit, Scale, fit_lane, lane_geometry, m_to_px, px_to_m
-from .search import Pixels, SearchResult, blind_search, search_around
+from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, lane_geometry, m_to_px, px_to_m
+from .search import Pixels, SearchParams, SearchResult, blind_search, search_around, search_params
 from .threshold import threshold
 from .tracking import LOST, LaneTracker, Measurement, TrackedLane
 
@@ -110,6 +110,8 @@ class LaneFinder:
         self._birdseye: BirdsEye | None = None
         self.keep_debug = keep_debug
         self.tracker: LaneTracker | None = None
+        self.search_px: SearchParams | None = None
+        self.fit_px: FitParams | None = None
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
         """The (cached) bird's-eye set-up for this frame size."""
@@ -119,6 +121,8 @@ class LaneFinder:
                 self._camera = camera_from_config(self.config, frame_size)
             be = birdseye_from_config(self.config, self._camera, tuple(frame_size))
             self._birdseye = be
+            self.search_px = search_params(self.config.search, be.xm_per_px, be.ym_per_px, be.size[1])
+            self.fit_px = fit_params(self.config.fit, be.xm_per_px, be.ym_per_px, self.config.search.marking_width_m)
             lookahead = be.size[1] * be.ym_per_px
             self.tracker = LaneTracker(self.config.tracking, lookahead)
         return be
@@ -136,36 +140,34 @@ class LaneFinder:
         if frame is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
             raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
         be = self.birdseye((frame.shape[1], frame.shape[0]))
-        binary = threshold(be.warp(frame), self.config.threshold)
+        binary = threshold(be.warp(frame), self.config.threshold, be.xm_per_px)
         return self.process_binary(binary, be)
 
     def process_binary(self, binary: np.ndarray, be: BirdsEye) -> LaneResult:
         """Search, fit and track on a bird's-eye binary (uint8 0/1)."""
-        cfg = self.config
-        tracker = self.tracker
-        assert tracker is not None
+        tracker, sp, fp = self.tracker, self.search_px, self.fit_px
+        assert tracker is not None and sp is not None and fp is not None
         scale = self.scale(be)
         pixels = Pixels.of(binary)
         blind = tracker.needs_blind_search
         if blind:
-            found = blind_search(binary, cfg.search, be.car_x_px, pixels)
+            found = blind_search(binary, sp, be.car_x_px, pixels)
         else:
             found = search_around(binary, m_to_px(tracker.left, scale), m_to_px(tracker.right, scale),
-                                  cfg.search.around_margin_px, pixels)
+                                  sp.around_margin_px, pixels)
         height = be.size[1]
-        fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, cfg.fit)
-        if not blind and (_weak(fit_l, cfg) or _weak(fit_r, cfg)):
+        fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
+        if not blind and (_weak(fit_l, self.config) or _weak(fit_r, self.config)):
             # A line went weak around the track: search blind in the same frame and keep, per
             # line, whichever search gives the more confident fit.
-            again = blind_search(binary, cfg.search, be.car_x_px, pixels)
-            again_l, again_r = fit_lane((again.left.x, again.left.y), (again.right.x, again.right.y), height, cfg.fit)
+            again = blind_search(binary, sp, be.car_x_px, pixels)
+            again_l, again_r = fit_lane((again.left.x, again.left.y), (again.right.x, again.right.y), height, fp)
             use_l = _conf(again_l) > _conf(fit_l)
             use_r = _conf(again_r) > _conf(fit_r)
             if use_l or use_r:
                 found = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
                                      found.method + "+windows", again.histogram, again.bases_px, found.band_px)
-                fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height,
-                                        cfg.fit)
+                fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
         track = tracker.update(self._measure(fit_l, scale), self._measure(fit_r, scale), blind)
         return self._result(track, fit_l, fit_r, found, binary, scale)
 

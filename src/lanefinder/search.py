@@ -13,10 +13,37 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from .config import SearchConfig
-
 # A window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels; found tells if it held enough pixels.
 Window = tuple[int, int, int, int, bool]
+
+
+@dataclass(frozen=True)
+class SearchParams:
+    """Search settings in bird's-eye pixels (see :func:`search_params`)."""
+
+    method: str
+    n_windows: int
+    margin_px: float
+    min_pixels: int
+    histogram_fraction: float
+    around_margin_px: float
+    expected_width_px: float
+    width_tolerance: float
+
+
+def search_params(cfg: SearchParams, xm_per_px: float, ym_per_px: float, height_px: int) -> SearchParams:
+    """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
+    per_m = cfg.marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
+    return SearchParams(
+        method=cfg.method,
+        n_windows=cfg.n_windows,
+        margin_px=cfg.margin_m / xm_per_px,
+        min_pixels=max(3, round(cfg.min_window_marking_m * per_m)),
+        histogram_fraction=cfg.histogram_fraction,
+        around_margin_px=cfg.around_margin_m / xm_per_px,
+        expected_width_px=cfg.lane_width_m / xm_per_px,
+        width_tolerance=cfg.width_tolerance,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,12 +162,13 @@ def _take(px: Pixels, parts: list[np.ndarray]) -> LinePixels:
     return LinePixels(px.x[idx].astype(np.float32), px.y[idx].astype(np.float32))
 
 
-def _windows_for(px: Pixels, base: float | None, cfg: SearchConfig) -> LinePixels:
+def _windows_for(px: Pixels, base: float | None, cfg: SearchParams) -> LinePixels:
     if base is None:
         return EMPTY
     h, w = px.shape
     win_h = h / cfg.n_windows
     x_c, step = float(base), 0.0
+    last_x: float | None = None
     parts: list[np.ndarray] = []
     windows: list[Window] = []
     for i in range(cfg.n_windows):
@@ -154,17 +182,21 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchConfig) -> LinePixel
         if found:
             parts.append(sel + sl.start)
             new_x = float(xs[sel].mean())
-            step = 0.5 * step + 0.5 * (new_x - x_c) if i else 0.0
+            # Follow a bend: the drift between consecutive found windows carries on upwards.
+            step = 0.5 * step + 0.5 * (new_x - last_x) if last_x is not None else 0.0
+            last_x = new_x
             x_c = new_x + step
         else:
-            x_c += step  # keep following the bend
+            last_x = None
+            step *= 0.5  # an empty window: keep going, but less and less sure of the bend
+            x_c += step
         if not -cfg.margin_px < x_c < w + cfg.margin_px:
             break
     lp = _take(px, parts)
     return LinePixels(lp.x, lp.y, tuple(windows))
 
 
-def sliding_windows(binary: np.ndarray, cfg: SearchConfig, car_x: float,
+def sliding_windows(binary: np.ndarray, cfg: SearchParams, car_x: float,
                     pixels: Pixels | None = None) -> SearchResult:
     """Histogram of the lower image for the line bases, then windows stepping up."""
     px = pixels or Pixels.of(binary)
@@ -173,7 +205,7 @@ def sliding_windows(binary: np.ndarray, cfg: SearchConfig, car_x: float,
     return SearchResult(_windows_for(px, bases[0], cfg), _windows_for(px, bases[1], cfg), "windows", hist, bases)
 
 
-def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: SearchConfig) -> LinePixels:
+def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: SearchParams) -> LinePixels:
     if base is None:
         return EMPTY
     h, w = binary.shape
@@ -209,7 +241,7 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
     return LinePixels(lp.x, lp.y, tuple(windows))
 
 
-def segment_search(binary: np.ndarray, cfg: SearchConfig, car_x: float,
+def segment_search(binary: np.ndarray, cfg: SearchParams, car_x: float,
                    pixels: Pixels | None = None) -> SearchResult:
     """Histograms segment by segment, following each line up and rejecting implausible peaks."""
     px = pixels or Pixels.of(binary)
@@ -219,7 +251,7 @@ def segment_search(binary: np.ndarray, cfg: SearchConfig, car_x: float,
                         "segments", hist, bases)
 
 
-def blind_search(binary: np.ndarray, cfg: SearchConfig, car_x: float, pixels: Pixels | None = None) -> SearchResult:
+def blind_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None = None) -> SearchResult:
     """The configured search that needs no previous fit."""
     if cfg.method == "segments":
         return segment_search(binary, cfg, car_x, pixels)

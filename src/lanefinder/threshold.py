@@ -12,7 +12,9 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
+from .config import BirdseyeConfig, ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
+
+_DEFAULT_XM = BirdseyeConfig().xm_per_px
 
 
 def _in_range(channel: np.ndarray, lo_hi: tuple[float, float]) -> np.ndarray:
@@ -66,28 +68,28 @@ def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
     return (_in_range(gx, cfg.ycrcb_y_grad) | _in_range(yuv_y, cfg.yuv_y) | _in_range(r, cfg.rgb_r)).astype(np.uint8)
 
 
-def ridge(image: np.ndarray, cfg: RidgeConfig) -> np.ndarray:
-    """Markings as horizontal ridges of lightness (white) or of Lab b (yellow).
+def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float = _DEFAULT_XM) -> np.ndarray:
+    """Markings as horizontal ridges of lightness (white and yellow) or of yellowness.
 
-    The top-hat ``v - opening(v)`` over a ``width_px`` wide window keeps only features
-    narrower than the window and brighter than the road on both sides.  A shadow edge or
-    a pavement seam is a one-sided step: its top-hat is zero.  The white test is relative
-    to the local road level, so a line in shade passes and sunlit texture does not.
-    Right for the bird's-eye image of any road; the default.
+    Lightness is the green channel (close to luminance, high on white and yellow paint);
+    yellowness is red minus blue.  The top-hat ``v - opening(v)`` over a ``width_m`` wide
+    window keeps only features narrower than the window and brighter than the road on
+    *both* sides.  A shadow edge or a pavement seam is a one-sided step: its top-hat is zero.
+    The lightness test is relative to the local road level, so a line in shade passes and
+    sunlit texture does not.  Right for the bird's-eye image of any road; the default.
     """
-    lab = cv2.cvtColor(image, cv2.COLOR_BGR2LAB)
-    light, yellow = lab[..., 0], lab[..., 2]
-    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (int(cfg.width_px), 1))
+    blue, light, red = cv2.split(image)
+    yellow = cv2.subtract(red, blue)
+    width = max(3, round(cfg.width_m / xm_per_px)) | 1  # odd: a symmetric window keeps steps exact
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (width, 1))
     road = cv2.morphologyEx(light, cv2.MORPH_OPEN, kernel)
     top = cv2.subtract(light, road)
     # contrast > max(min_contrast, rel_contrast * road): one fused integer comparison.
     need = cv2.max(cv2.convertScaleAbs(road, alpha=cfg.rel_contrast), int(cfg.min_contrast))
     white = cv2.compare(top, need, cv2.CMP_GT)
-    if cfg.max_lightness < 255:
-        white &= cv2.compare(light, int(cfg.max_lightness), cv2.CMP_LE)
     ytop = cv2.subtract(yellow, cv2.morphologyEx(yellow, cv2.MORPH_OPEN, kernel))
     yel = cv2.compare(ytop, int(cfg.yellow_min_contrast), cv2.CMP_GT) & cv2.compare(
-        yellow, int(cfg.yellow_min_b), cv2.CMP_GT
+        yellow, int(cfg.yellow_min), cv2.CMP_GT
     )
     return cv2.bitwise_or(white, yel) // 255
 
@@ -100,7 +102,12 @@ STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = 
 }
 
 
-def threshold(image: np.ndarray, cfg: ThresholdConfig) -> np.ndarray:
-    """Binary mask (uint8 0/1) of lane-marking pixels with the configured strategy."""
+def threshold(image: np.ndarray, cfg: ThresholdConfig, xm_per_px: float = _DEFAULT_XM) -> np.ndarray:
+    """Binary mask (uint8 0/1) of lane-marking pixels with the configured strategy.
+
+    ``xm_per_px`` (metres per pixel across the road) sizes the ``ridge`` window.
+    """
     func, section = STRATEGIES[cfg.strategy]
+    if cfg.strategy == "ridge":
+        return ridge(image, cfg.ridge, xm_per_px)
     return func(image, getattr(cfg, section))
