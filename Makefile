@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test lint check-videos clean
+.PHONY: install demo test lint bench check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,9 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench.py $(if $(wildcard ../shared/data/udacity/videos/project_video.mp4),--memory ../shared/data/udacity/videos/project_video.mp4)
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py

@@ -167,7 +167,7 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 @click.option("--debug", is_flag=True, help="Picture-in-picture of the bird's-eye search in every frame.")
 @click.option("--contact-sheet", "sheet", type=click.Path(), help="Write a PNG grid of frames spread over the run.")
 @click.option("--preset", type=click.Choice(["ultrafast", "superfast", "veryfast", "faster", "fast", "medium"]),
-              help="x264 preset (default from config: veryfast).")
+              help="x264 preset (default from config: superfast).")
 @click.option("--crf", type=click.IntRange(0, 51), help="x264 quality, lower is better (default from config: 23).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def video(src: str, output: str, config_path: str | None, start_s: float, end_s: float | None,

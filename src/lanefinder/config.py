@@ -169,7 +169,7 @@ class RenderConfig(_Section):
 
 
 class VideoConfig(_Section):
-    preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow"] = "veryfast"
+    preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow"] = "superfast"
     crf: Annotated[int, Field(ge=0, le=51)] = 23
     threads: Annotated[int, Field(ge=0, le=64)] = 0
 

@@ -85,7 +85,7 @@ def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20,
     width = max(cv2.getTextSize(s, FONT, scale, thick)[0][0] for s in lines) + 20
     x, y = origin
     box = frame[y:y + line_h * len(lines) + 14, x:x + width]
-    box[:] = (box * 0.35).astype(np.uint8)
+    cv2.convertScaleAbs(box, box, 0.35)
     color = (80, 80, 255) if warn else (255, 255, 255)
     for i, s in enumerate(lines):
         cv2.putText(frame, s, (x + 10, y + line_h * (i + 1)), FONT, scale, color, thick, cv2.LINE_AA)
@@ -93,9 +93,9 @@ def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20,
 
 
 def annotate(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderConfig,
-             extra: list[str] | None = None) -> np.ndarray:
-    """Lane and HUD on a copy of ``frame``."""
-    out = frame.copy()
+             extra: list[str] | None = None, inplace: bool = False) -> np.ndarray:
+    """Lane and HUD on a copy of ``frame`` (or on ``frame`` itself with ``inplace``)."""
+    out = frame if inplace else frame.copy()
     draw_lane(out, result, be, cfg)
     if cfg.hud:
         draw_hud(out, hud_lines(result) + (extra or []), warn=not result.lane_found)

@@ -121,8 +121,12 @@ def process_video(
     sheet_frames: int = 20,
     progress: bool = True,
     max_frames: int | None = None,
+    on_result: Callable[[int, LaneResult], None] | None = None,
 ) -> VideoSummary:
-    """Annotate a video; returns the run's summary.  See the README's "Video" section."""
+    """Annotate a video; returns the run's summary.  See the README's "Videos" section.
+
+    ``on_result(frame_index, result)`` is called for every frame, in order.
+    """
     from tqdm import tqdm
 
     cfg = config or Config()
@@ -188,12 +192,14 @@ def process_video(
             if stop.is_set():
                 break
             result = finder.process(f.image)
-            out = annotate(f.image, result, be, cfg.render)
+            out = annotate(f.image, result, be, cfg.render, inplace=True)
             if debug:
                 debug_overlay(out, result)
             out_q.put(out)
             if writer:
                 writer.write(make_row(f.index, f.time_s, result, be))
+            if on_result:
+                on_result(f.index, result)
             if n in sheet_at:
                 thumbs.append((f.time_s, cv2.resize(out, (320, int(320 * out.shape[0] / out.shape[1])),
                                                     interpolation=cv2.INTER_AREA)))
