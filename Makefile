@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test lint bench check-videos clean
+.PHONY: install demo test lint bench eval check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,9 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench.py $(if $(wildcard ../shared/data/udacity/videos/project_video.mp4),--memory ../shared/data/udacity/videos/project_video.mp4)
+
+eval: $(STAMP)
+	$(BIN)/python scripts/eval_synthetic.py --frames 100
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py

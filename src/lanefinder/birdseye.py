@@ -26,7 +26,7 @@ class BirdsEye:
     src_px: 4x2 trapezoid in undistorted frame pixels; dst_px: 4x2 rectangle in bird's-eye pixels.
     size: (width, height) of the bird's-eye image in pixels.
     xm_per_px, ym_per_px: metres per bird's-eye pixel across and along the road.
-    car_x_px: bird's-eye x of the camera centre line at the bottom row.
+    car_x_px: bird's-eye x of the road point right below the camera (see :func:`camera_foot_px`).
     """
 
     camera: CameraModel
@@ -69,6 +69,35 @@ class BirdsEye:
         return cv2.perspectiveTransform(undist.reshape(-1, 1, 2), self.matrix).reshape(-1, 2)
 
 
+def plane_pose(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: float,
+               ym_per_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The road plane seen by the camera, from the bird's-eye set-up.
+
+    A road point at metric bird's-eye coordinates (X, Y) = (u*xm, v*ym) images at
+    K [r1 r2 t] (X, Y, 1); returns r1, r2 (unit), t (metres, camera frame) and the scale
+    ratio |r1|/|r2| before normalising (1.0 when xm and ym agree with the camera).
+    """
+    b = np.linalg.inv(camera_matrix) @ np.linalg.inv(matrix) @ np.diag([1.0 / xm_per_px, 1.0 / ym_per_px, 1.0])
+    b = b * (1.0 if b[2, 2] >= 0 else -1.0)  # the homogeneous sign that puts the road in front
+    n1, n2 = np.linalg.norm(b[:, 0]), np.linalg.norm(b[:, 1])
+    return b[:, 0] / n1, b[:, 1] / n2, b[:, 2] / np.sqrt(n1 * n2), float(n1 / n2)
+
+
+def camera_foot_px(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: float,
+                   ym_per_px: float) -> tuple[float, float]:
+    """Bird's-eye (x, y) of the road point right below the camera: the car's position.
+
+    Its x is the camera's lateral place, which the offset is measured from; it allows for the
+    camera's yaw and principal point, unlike "the image's centre column".
+    """
+    r1, r2, t, _ = plane_pose(camera_matrix, matrix, xm_per_px, ym_per_px)
+    # The bird's-eye axes need not be orthogonal on the road (rows of the frame run square to
+    # the camera axis, columns along the lane), so solve for the nearest road point in their basis.
+    gram = np.array([[r1 @ r1, r1 @ r2], [r1 @ r2, r2 @ r2]])
+    x_m, y_m = np.linalg.solve(gram, -np.array([t @ r1, t @ r2]))
+    return float(x_m / xm_per_px), float(y_m / ym_per_px)
+
+
 def make_birdseye(
     camera: CameraModel,
     src_px: np.ndarray,
@@ -90,8 +119,6 @@ def make_birdseye(
     # with (K, dist).  With newK = M @ K and R = I that ray is inv(K) @ inv(M) @ p: the
     # undistorted pixel M^-1 p, exactly what one remap from raw frame to bird's-eye needs.
     map1, map2 = cv2.initUndistortRectifyMap(k, camera.dist_coeffs, None, m @ k, size, cv2.CV_16SC2)
-    w, _h = camera.image_size
-    # The camera centre line (frame column w/2) seen at the bird's-eye bottom row.
-    bottom = cv2.perspectiveTransform(np.array([[[ (w - 1) / 2, float(src[2:, 1].max())]]]), m)[0, 0]
+    car_x = camera_foot_px(camera.camera_matrix, m, xm_per_px, ym_per_px)[0]
     return BirdsEye(camera, src, dst, (int(size[0]), int(size[1])), float(xm_per_px), float(ym_per_px),
-                    m, m_inv, map1, map2, float(bottom[0]))
+                    m, m_inv, map1, map2, float(car_x))

@@ -206,6 +206,61 @@ def plot(telemetry: str, output: str) -> None:
     click.echo(f"wrote {output}")
 
 
+# -- synth / eval ------------------------------------------------------------------------
+@main.command()
+@click.option("--scenario", default="straight", show_default=True,
+              help="straight, curve, shadows, pavement, glare, worn, double-yellow, sharp-curve.")
+@click.option("--frames", "n_frames", type=click.IntRange(1, 100000), default=100, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--camera", "camera_path", type=click.Path(), help="Camera file (default: the Udacity camera).")
+@click.option("--height", "height_m", type=float, default=None, help="Camera height above the road, m.")
+@click.option("--pitch", "pitch_deg", type=float, default=None, help="Camera pitch, degrees down.")
+@click.option("-o", "--outdir", required=True, type=click.Path(), help="Folder for the sequence.")
+@click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
+def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, height_m: float | None,
+          pitch_deg: float | None, outdir: str, list_only: bool) -> None:
+    """Render a synthetic dashcam sequence with exact ground truth.
+
+    Writes video.mp4, gt.jsonl (per frame: curvature, radius, offset, width, TuSimple lanes),
+    camera.json and config.toml (the exact bird's-eye set-up, for `lanefinder video -c`).
+    """
+    from .camera import load_camera
+    from .synth import SCENARIOS, Mount, write_sequence
+
+    if list_only:
+        for s in SCENARIOS.values():
+            click.echo(f"{s.name:<14} {s.description}")
+        return
+    mount = Mount()
+    mount = Mount(height_m if height_m is not None else mount.height_m,
+                  pitch_deg if pitch_deg is not None else mount.pitch_deg)
+    cam = load_camera(camera_path) if camera_path else None
+    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=True)
+    click.echo(f"wrote {out}/video.mp4, gt.jsonl, camera.json, config.toml")
+
+
+@main.command("eval")
+@click.option("--gt", "gt_path", required=True, type=click.Path(), help="Ground truth: gt.jsonl or TuSimple labels.")
+@click.option("--pred", "pred_path", required=True, type=click.Path(),
+              help="Predictions: lanefinder telemetry (.csv/.jsonl) or TuSimple predictions.")
+@click.option("--json", "json_path", type=click.Path(), help="Also write the figures as JSON.")
+@click.option("--name", default="", help="Row label in the table.")
+def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> None:
+    """Score predictions: TuSimple accuracy/FP/FN, offset and curvature errors, catastrophic frames."""
+    from dataclasses import asdict
+
+    from .evaluate import evaluate, read_ground_truth, read_predictions
+    from .io import atomic_write_text
+
+    report = evaluate(read_ground_truth(gt_path), read_predictions(pred_path))
+    click.echo(report.table(name))
+    if report.missing_frames:
+        click.echo(f"{report.missing_frames} ground-truth frame(s) had no prediction (scored as no lane)")
+    if json_path:
+        atomic_write_text(json_path, json.dumps(asdict(report), indent=2) + "\n")
+        click.echo(f"wrote {json_path}")
+
+
 def _num(v: float) -> float | None:
     return None if v != v else round(float(v), 6)
 

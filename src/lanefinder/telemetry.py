@@ -48,13 +48,19 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> 
     if fit_px is None:
         return [-2.0] * len(rows)
     h = be.size[1]
-    y = np.linspace(0, 2.0 * h, 96)
+    w_f, h_f = be.frame_size
+    y = np.linspace(0, 2.0 * h, 160)
     x = (fit_px[0] * y + fit_px[1]) * y + fit_px[2]
-    pts = be.to_frame(np.column_stack([x, y]))
+    und = be.to_undistorted(np.column_stack([x, y]))
+    # Only where the undistorted point is (nearly) in view: the lens polynomial is not
+    # monotonic far outside the calibrated field, and the road behind the camera is not seen.
+    ok = (und[:, 0] > -0.1 * w_f) & (und[:, 0] < 1.1 * w_f) & (und[:, 1] > -0.1 * h_f) & (und[:, 1] < 1.1 * h_f)
+    ok &= np.logical_and.accumulate(np.concatenate([[True], np.diff(und[:, 1]) > 0]))
+    if ok.sum() < 2:
+        return [-2.0] * len(rows)
+    pts = be.to_frame(np.column_stack([x[ok], y[ok]]))
     fy, fx = pts[:, 1], pts[:, 0]
-    # Keep the part that moves down the frame monotonically (the far end can fold back).
-    keep = np.concatenate([[True], np.diff(fy) > 0])
-    keep = np.logical_and.accumulate(keep)
+    keep = np.logical_and.accumulate(np.concatenate([[True], np.diff(fy) > 0]))
     fy, fx = fy[keep], fx[keep]
     w = be.frame_size[0]
     out = []

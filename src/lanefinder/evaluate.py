@@ -1,0 +1,190 @@
+"""Scoring predictions against ground truth: the TuSimple lane metric and errors in metres.
+
+The TuSimple functions follow the official benchmark (tusimple-benchmark, evaluate/lane.py)
+rule for rule:
+- a point is correct when |x_pred - x_gt| < 20 px / cos(angle), the angle of the ground-truth
+  lane from a least-squares line x(y) through its valid points; a missing value (< 0) is
+  compared as -100, so a point absent from both counts as correct;
+- a lane's accuracy is its correct points over all h_samples; a ground-truth lane is matched
+  when its best prediction reaches 0.85; FP = predictions - matched, FN = unmatched truths;
+- with more than 4 truth lanes one FN is forgiven and the worst lane is dropped; the frame's
+  accuracy is the sum over at most 4 lanes; a frame with more than 2 extra predictions, or run
+  time above 200 ms, scores (0, 0, 1);
+- the dataset figures are plain means over the ground-truth frames.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LaneFinderError
+
+PIXEL_THRESH = 20.0
+PT_THRESH = 0.85
+
+
+def lane_angle(xs: np.ndarray, y_samples: np.ndarray) -> float:
+    """Angle (radians) of a lane from the least-squares line x = k*y + b over its valid points."""
+    valid = xs >= 0
+    xs, ys = xs[valid], y_samples[valid]
+    if len(xs) > 1:
+        k = np.polyfit(ys.astype(float), xs.astype(float), 1)[0]
+        return float(np.arctan(k))
+    return 0.0
+
+
+def line_accuracy(pred: np.ndarray, gt: np.ndarray, thresh: float) -> float:
+    """Fraction of samples where |pred - gt| < thresh, with missing values (< 0) as -100."""
+    pred = np.where(np.asarray(pred, float) >= 0, pred, -100.0)
+    gt = np.where(np.asarray(gt, float) >= 0, gt, -100.0)
+    return float(np.sum(np.abs(pred - gt) < thresh) / len(gt))
+
+
+def bench_frame(pred: list[list[float]], gt: list[list[float]], y_samples: list[int],
+                running_time_ms: float = 0.0) -> tuple[float, float, float]:
+    """(accuracy, FP rate, FN rate) of one frame, exactly as TuSimple's LaneEval.bench."""
+    if any(len(p) != len(y_samples) for p in pred):
+        raise LaneFinderError("format of lanes: every predicted lane needs one x per h_sample")
+    if running_time_ms > 200 or len(gt) + 2 < len(pred):
+        return 0.0, 0.0, 1.0
+    ys = np.asarray(y_samples)
+    threshs = [PIXEL_THRESH / math.cos(lane_angle(np.asarray(g, float), ys)) for g in gt]
+    line_accs, fn, matched = [], 0.0, 0.0
+    for x_gts, thresh in zip(gt, threshs, strict=True):
+        accs = [line_accuracy(np.asarray(p), np.asarray(x_gts), thresh) for p in pred]
+        max_acc = max(accs) if accs else 0.0
+        if max_acc < PT_THRESH:
+            fn += 1
+        else:
+            matched += 1
+        line_accs.append(max_acc)
+    fp = len(pred) - matched
+    if len(gt) > 4 and fn > 0:
+        fn -= 1
+    s = sum(line_accs)
+    if len(gt) > 4:
+        s -= min(line_accs)
+    return (s / max(min(4.0, len(gt)), 1.0), fp / len(pred) if pred else 0.0, fn / max(min(len(gt), 4.0), 1.0))
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    frames: int
+    accuracy: float
+    fp: float
+    fn: float
+    offset_err_median_m: float | None
+    offset_err_p90_m: float | None
+    curvature_err_median: float | None
+    radius_rel_err_median: float | None
+    catastrophic_rate: float
+    missing_frames: int
+
+    def table(self, name: str = "") -> str:
+        def f(v: float | None, fmt: str) -> str:
+            return "-" if v is None else format(v, fmt)
+
+        head = f"{'':<14} {'frames':>6} {'accuracy':>9} {'FP':>6} {'FN':>6} {'offset med':>10} {'offset p90':>10} " \
+               f"{'1/R med':>9} {'R rel med':>9} {'catastr.':>8}"
+        row = (f"{name:<14} {self.frames:>6} {self.accuracy:>9.4f} {self.fp:>6.3f} {self.fn:>6.3f} "
+               f"{f(self.offset_err_median_m, '.3f'):>10} {f(self.offset_err_p90_m, '.3f'):>10} "
+               f"{f(self.curvature_err_median, '.2e'):>9} {f(self.radius_rel_err_median, '.3f'):>9} "
+               f"{self.catastrophic_rate:>8.3f}")
+        return head + "\n" + row
+
+
+def _read_jsonl(path: Path) -> list[dict]:
+    if not path.is_file():
+        raise LaneFinderError(f"not found: {path}")
+    try:
+        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    except json.JSONDecodeError as e:
+        raise LaneFinderError(f"{path}: not JSON Lines ({e})") from None
+
+
+def _key(row: dict) -> str:
+    if "raw_file" in row:
+        return str(row["raw_file"])
+    if "frame" in row:
+        return f"frame/{int(row['frame']):06d}"
+    raise LaneFinderError("each row needs raw_file (TuSimple) or frame (lanefinder telemetry)")
+
+
+def read_ground_truth(path: str | Path) -> dict[str, dict]:
+    """Ground truth by frame key: our gt.jsonl or a TuSimple label file (raw_file, lanes, h_samples)."""
+    rows = _read_jsonl(Path(path))
+    for r in rows:
+        if "lanes" not in r or "h_samples" not in r:
+            raise LaneFinderError(f"{path}: ground truth rows need lanes and h_samples")
+    return {_key(r): r for r in rows}
+
+
+def read_predictions(path: str | Path) -> dict[str, dict]:
+    """Predictions by frame key: lanefinder telemetry (CSV/JSONL) or TuSimple (raw_file, lanes, run_time)."""
+    from .telemetry import read_telemetry
+
+    p = Path(path)
+    rows = read_telemetry(p) if p.suffix.lower() == ".csv" else _read_jsonl(p)
+    out = {}
+    for r in rows:
+        if "lanes" not in r:
+            lanes = [lane for lane in (r.get("left_x"), r.get("right_x")) if lane and any(v >= 0 for v in lane)]
+            r = {**r, "lanes": lanes}
+        out[_key(r)] = r
+    return out
+
+
+def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
+    """TuSimple figures over the ground-truth frames, and metre errors where the truth has them.
+
+    A frame with no prediction counts as predicting no lane.  Catastrophic: no lane
+    predicted, a truth line whose mean error over the rows both have is above 50 px (or that
+    has no prediction at all), or an offset error above 0.5 m.
+    """
+    if not gt:
+        raise LaneFinderError("the ground truth has no frames")
+    acc = fp = fn = 0.0
+    off_err, k_err, r_rel = [], [], []
+    catastrophic = missing = 0
+    for key, g in gt.items():
+        p = pred.get(key)
+        if p is None:
+            missing += 1
+        lanes = p["lanes"] if p else []
+        a, f_p, f_n = bench_frame(lanes, g["lanes"], g["h_samples"], float(p.get("run_time", 0) or 0) if p else 0)
+        acc, fp, fn = acc + a, fp + f_p, fn + f_n
+        bad = not lanes
+        for gl in g["lanes"]:
+            gl = np.asarray(gl, float)
+            best = None
+            for pl in lanes:
+                pl = np.asarray(pl, float)
+                both = (gl >= 0) & (pl >= 0)
+                if both.any():
+                    err = float(np.mean(np.abs(gl[both] - pl[both])))
+                    best = err if best is None else min(best, err)
+            if best is None or best > 50:
+                bad = True
+        if p is not None and g.get("offset_m") is not None and p.get("offset_m") is not None:
+            e = abs(float(p["offset_m"]) - float(g["offset_m"]))
+            off_err.append(e)
+            bad |= e > 0.5
+        if p is not None and g.get("curvature_per_m") is not None and p.get("curvature_per_m") is not None:
+            k_err.append(abs(float(p["curvature_per_m"]) - float(g["curvature_per_m"])))
+            r_gt = g.get("radius_m")
+            if r_gt is not None and abs(r_gt) < 1000 and p.get("radius_m") is not None:
+                r_rel.append(abs(float(p["radius_m"]) - float(r_gt)) / abs(float(r_gt)))
+        catastrophic += bad
+    n = len(gt)
+
+    def med(v: list[float]) -> float | None:
+        return float(np.median(v)) if v else None
+
+    return EvalReport(n, acc / n, fp / n, fn / n, med(off_err),
+                      float(np.percentile(off_err, 90)) if off_err else None, med(k_err), med(r_rel),
+                      catastrophic / n, missing)

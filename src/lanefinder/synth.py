@@ -1,0 +1,359 @@
+"""Synthetic dashcam sequences with exactly known lane geometry (ground truth for ``lanefinder eval``).
+
+The road is modelled in the car's level frame: X right, Y down, Z forward, the road plane
+at Y = camera height.  The lane centre is a cubic in distance ahead,
+x_c(Z) = -offset + heading*Z + curvature/2*Z^2 + curvature_rate/6*Z^3, and the lines are
+at x_c -/+ width/2 (lateral distances, as the pipeline measures them).  Every pixel of the
+*distorted* frame casts its ray (the exact inverse lens model, ``cv2.undistortPoints``) onto
+the road, 2x2 samples per pixel, so undistorting a frame gives the pinhole rendering back.
+Textures, dashes and shadows are anchored to the road (distance travelled + Z), so they move
+consistently from frame to frame.
+
+Ground truth per frame is taken where the pipeline measures: at the bird's-eye bottom row,
+``z_near`` metres ahead (see docs/conventions.md): curvature, radius, offset, width, and
+each line's x in the distorted frame at the TuSimple rows.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass, field, replace
+from fractions import Fraction
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .camera import CameraModel, save_camera
+from .errors import LaneFinderError
+from .io import atomic_write_text
+from .telemetry import h_samples as tusimple_rows
+
+DASH_M, GAP_M = 3.0, 9.0
+MARKING_M = 0.15
+
+
+@dataclass(frozen=True)
+class Mount:
+    """Where the camera sits: height above the road (m) and pitch down (degrees)."""
+
+    height_m: float = 1.26
+    # Negative: looking slightly up, as the Udacity camera does (its vanishing row 418.6 is
+    # below its principal point 389.4).
+    pitch_deg: float = -1.44
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """Hard conditions, each switchable."""
+
+    tree_shadows: bool = False
+    bridge_shadow: bool = False
+    pavement_changes: bool = False
+    seams: bool = False
+    glare: bool = False
+    worn: bool = False
+    double_yellow: bool = False
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A sequence: geometry that varies smoothly with time, and its conditions.
+
+    Each geometric quantity is ``base + amp * sin(2*pi*t/period_s + phase)``.
+    """
+
+    name: str
+    speed_mps: float = 25.0
+    offset_m: tuple[float, float] = (0.1, 0.25)
+    heading: tuple[float, float] = (0.0, 0.004)
+    curvature: tuple[float, float] = (0.0, 0.0)
+    curvature_rate: tuple[float, float] = (0.0, 0.0)
+    width_m: tuple[float, float] = (3.7, 0.1)
+    period_s: float = 8.0
+    conditions: Conditions = field(default_factory=Conditions)
+    description: str = ""
+
+
+SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
+    Scenario("straight", description="straight highway, solid yellow left, dashed white right"),
+    Scenario("curve", curvature=(1 / 900, 1 / 3000), description="highway curve, R 700-1300 m"),
+    Scenario("shadows", curvature=(1 / 1500, 0.0),
+             conditions=Conditions(tree_shadows=True, bridge_shadow=True), description="tree and bridge shadows"),
+    Scenario("pavement", curvature=(-1 / 1200, 0.0),
+             conditions=Conditions(pavement_changes=True, seams=True),
+             description="pavement colour changes and seams inside the lane"),
+    Scenario("glare", conditions=Conditions(glare=True), description="glare and over-exposure"),
+    Scenario("worn", curvature=(1 / 2000, 0.0), conditions=Conditions(worn=True),
+             description="worn and missing markings"),
+    Scenario("double-yellow", curvature=(-1 / 1000, 0.0), conditions=Conditions(double_yellow=True),
+             description="double yellow centre line"),
+    Scenario("sharp-curve", speed_mps=12.0, curvature=(1 / 90, 1 / 400), curvature_rate=(0.0, 2e-4),
+             offset_m=(0.0, 0.2), width_m=(3.5, 0.1), period_s=6.0, description="sharp curves, R 70-130 m"),
+]}
+
+
+@dataclass(frozen=True)
+class FrameTruth:
+    """Ground truth of one frame (see the module docstring for where it is measured)."""
+
+    frame: int
+    time_s: float
+    curvature_per_m: float
+    radius_m: float | None
+    offset_m: float
+    width_m: float
+    h_samples: list[int]
+    left_x: list[float]
+    right_x: list[float]
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["raw_file"] = f"frame/{self.frame:06d}"
+        d["lanes"] = [lane for lane in (self.left_x, self.right_x) if any(v >= 0 for v in lane)]
+        return d
+
+
+def _level_to_camera(pitch_deg: float) -> np.ndarray:
+    p = math.radians(pitch_deg)
+    return np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
+
+
+class Renderer:
+    """Renders frames of a scenario for one camera and mount."""
+
+    def __init__(self, camera: CameraModel, mount: Mount, scenario: Scenario, seed: int = 0,
+                 z_near: float = 6.0, z_far: float = 35.0, supersample: int = 2):
+        self.camera, self.mount, self.sc = camera, mount, scenario
+        self.z_near, self.z_far = z_near, z_far
+        self.rot = _level_to_camera(mount.pitch_deg)
+        w, h = camera.image_size
+        rng = np.random.default_rng(seed)
+        self.texture = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 1.5)
+        self.texture = (self.texture - self.texture.mean()) / (self.texture.std() + 1e-6)
+        self.blobs = cv2.GaussianBlur(rng.random((128, 128)).astype(np.float32), (0, 0), 6)
+        self.blobs = (self.blobs - self.blobs.mean()) / (self.blobs.std() + 1e-6)
+        self.wear = rng.random(4096).astype(np.float32)
+        self.dash_phase = float(rng.uniform(0, DASH_M + GAP_M))
+        # Rays of every sub-pixel sample of the distorted frame, once.
+        s = supersample
+        xs = (np.arange(w * s) + 0.5) / s - 0.5
+        ys = (np.arange(h * s) + 0.5) / s - 0.5
+        gx, gy = np.meshgrid(xs, ys)
+        pts = np.column_stack([gx.ravel(), gy.ravel()]).reshape(-1, 1, 2)
+        norm = cv2.undistortPoints(pts, camera.camera_matrix, camera.dist_coeffs).reshape(-1, 2)
+        rays = np.column_stack([norm, np.ones(len(norm))]) @ self.rot  # level-frame directions (R^T d)
+        dy = rays[:, 1]
+        ground = dy > 1e-4
+        t = np.where(ground, mount.height_m / np.where(ground, dy, 1), 0.0)
+        grid = (h * s, w * s)
+        ground = ground.reshape(grid)
+        # Only the rows that hold road are shaded per frame; the sky is drawn once.
+        rows_with_road = np.flatnonzero(ground.any(axis=1))
+        r0 = int(rows_with_road[0]) if rows_with_road.size else grid[0]
+        r0 -= r0 % s  # whole output rows
+        self.r0 = r0
+        self.ground = ground[r0:]
+        self.X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
+        self.Z = (t * rays[:, 2]).reshape(grid)[r0:].astype(np.float32)
+        up = np.clip(-(dy / np.linalg.norm(rays, axis=1)).reshape(grid) * 4, 0, 1).astype(np.float32)
+        sky = np.stack([235 - 60 * up, 200 - 40 * up, 170 - 30 * up], -1)
+        self.sky_full = cv2.resize(sky, (w, h), interpolation=cv2.INTER_AREA)
+        self.sky_band = sky[r0:]
+        self.size, self.s = (w, h), s
+
+    # -- geometry ---------------------------------------------------------------------------
+    def geometry(self, t: float) -> dict:
+        sc = self.sc
+        ph = 2 * math.pi * t / sc.period_s
+
+        def val(base_amp: tuple[float, float], phase: float = 0.0) -> float:
+            return base_amp[0] + base_amp[1] * math.sin(ph + phase)
+
+        return {
+            "offset": val(sc.offset_m), "heading": val(sc.heading, 1.3), "curvature": val(sc.curvature, 0.7),
+            "curvature_rate": val(sc.curvature_rate, 2.1), "width": val(sc.width_m, 0.4),
+            "travelled": sc.speed_mps * t,
+        }
+
+    @staticmethod
+    def centre(g: dict, z: np.ndarray | float) -> np.ndarray | float:
+        return -g["offset"] + g["heading"] * z + g["curvature"] / 2 * z**2 + g["curvature_rate"] / 6 * z**3
+
+    def truth(self, index: int, t: float, g: dict) -> FrameTruth:
+        z0 = self.z_near
+        d1 = g["heading"] + g["curvature"] * z0 + g["curvature_rate"] / 2 * z0**2
+        d2 = g["curvature"] + g["curvature_rate"] * z0
+        k = d2 / (1 + d1 * d1) ** 1.5
+        rows = tusimple_rows(self.size[1])
+        return FrameTruth(index, round(t, 4), float(k), float(1 / abs(k)) if abs(k) > 1e-9 else None,
+                          float(-self.centre(g, z0)), float(g["width"]), rows,
+                          self._line_rows(g, -0.5, rows), self._line_rows(g, 0.5, rows))
+
+    def _line_rows(self, g: dict, side: float, rows: list[int]) -> list[float]:
+        """x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent."""
+        z = np.linspace(0.5, self.z_far, 600)
+        x = self.centre(g, z) + side * g["width"]
+        pts = np.column_stack([x, np.full_like(z, self.mount.height_m), z])
+        cam = pts @ self.rot.T
+        w, h = self.size
+        k = self.camera.camera_matrix
+        und = (cam @ k.T)[:, :2] / (cam @ k.T)[:, 2:]
+        # Only points whose pinhole image is (nearly) in view: the lens polynomial is not
+        # monotonic far outside the calibrated field.
+        ok = (cam[:, 2] > 0) & (und[:, 0] > -0.1 * w) & (und[:, 0] < 1.1 * w) & (und[:, 1] > -0.1 * h) & (
+            und[:, 1] < 1.1 * h)
+        if ok.sum() < 2:
+            return [-2.0] * len(rows)
+        rvec, _ = cv2.Rodrigues(self.rot)
+        img, _ = cv2.projectPoints(pts[ok], rvec, np.zeros(3), k, self.camera.dist_coeffs)
+        img = img.reshape(-1, 2)[::-1]  # far to near: rows increase
+        fy, fx = img[:, 1], img[:, 0]
+        inside = (fx >= 0) & (fx < w) & (fy >= 0) & (fy < h)
+        out = []
+        for r in rows:
+            if fy.size < 2 or r < fy[0] or r > fy[-1]:
+                out.append(-2.0)
+                continue
+            i = int(np.searchsorted(fy, r))
+            i = min(max(i, 1), fy.size - 1)
+            if not (inside[i] and inside[i - 1]):
+                out.append(-2.0)
+                continue
+            a = (r - fy[i - 1]) / (fy[i] - fy[i - 1])
+            out.append(round(float(fx[i - 1] + a * (fx[i] - fx[i - 1])), 2))
+        return out
+
+    # -- appearance -------------------------------------------------------------------------
+    def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
+        n = tile.shape[0]
+        return tile[(a * sa).astype(np.int64) % n, (b * sb).astype(np.int64) % n]
+
+    def render(self, t: float) -> np.ndarray:
+        """The distorted BGR uint8 frame at time ``t`` (seconds)."""
+        g = self.geometry(t)
+        c = self.sc.conditions
+        X, Z, ground = self.X, self.Z, self.ground
+        Zc = np.where(ground, Z, 0).astype(np.float32)
+        xc = self.centre(g, Zc).astype(np.float32)
+        rel = (X - xc).astype(np.float32)  # lateral position relative to the lane centre
+        u = (Zc + g["travelled"]).astype(np.float32)  # distance along the road, anchored to it
+        half = g["width"] / 2
+        tex = self._tex(rel + 100, u, self.texture, 24, 10)
+        base = np.float32(88) + 7 * tex
+        if c.pavement_changes:
+            concrete = (np.floor(u / 35.0) % 2) == 1
+            base = np.where(concrete, np.float32(165) + 6 * tex, base)
+        if c.seams:
+            base = base + np.where(rel > 0.35, np.float32(-22), np.float32(0)) + np.where(
+                np.abs(rel + 0.9) < 0.04, np.float32(-35), np.float32(0))
+        off_road = (rel < -half - 1.2) | (rel > 1.5 * g["width"] + 1.5)
+        img = np.stack([base * 0.97, base, base * 1.02], axis=-1).astype(np.float32)
+        img[off_road] = np.stack([60 + 10 * tex[off_road], 95 + 12 * tex[off_road], 100 + 10 * tex[off_road]], -1)
+
+        def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
+                  width: float = MARKING_M) -> None:
+            d = np.abs(rel - centre_rel)
+            # Coverage of the marking within this sample (smooth edge over ~1.5 cm).
+            cov = np.clip((width / 2 - d) / 0.015 + 0.5, 0, 1)
+            if dashed:
+                cov = cov * (((u + self.dash_phase) % (DASH_M + GAP_M)) < DASH_M)
+            if c.worn:
+                holes = self.wear[(u * 2).astype(np.int64) % self.wear.size] < 0.25
+                cov = cov * np.where(holes, 0.0, 0.55)
+                missing = self.wear[(u / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2
+                cov = cov * ~missing if dashed else cov
+            a = (cov * alpha)[..., None].astype(np.float32)
+            np.multiply(img, 1 - a, out=img)
+            np.add(img, a * np.asarray(color, np.float32), out=img)
+
+        yellow, white = (35.0, 185.0, 225.0), (228.0, 228.0, 228.0)
+        if c.double_yellow:
+            paint(-half - 0.1, yellow, False, width=0.1)
+            paint(-half + 0.1, yellow, False, width=0.1)
+        else:
+            paint(-half, yellow, False)
+        paint(half, white, True)
+        paint(1.5 * g["width"], white, False)
+        shade = np.ones(rel.shape, np.float32)
+        if c.tree_shadows:
+            blob = self._tex(rel + 50, u, self.blobs, 1.2, 0.6)
+            shade = np.where(blob > 0.5, np.float32(0.38), shade)
+        if c.bridge_shadow:
+            shade = np.where((u % 90.0) < 14.0, np.float32(0.3), shade)
+        img *= shade[..., None]
+        img[~ground] = self.sky_band[~ground]
+        w, h = self.size
+        out = self.sky_full.copy()
+        s = self.s
+        out[self.r0 // s:] = cv2.resize(img, (w, h - self.r0 // s), interpolation=cv2.INTER_AREA)
+        if c.glare:
+            yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+            cx, cy = w * (0.55 + 0.1 * math.sin(t)), h * 0.62
+            glow = np.exp(-(((xx - cx) / (0.4 * w)) ** 2 + ((yy - cy) / (0.25 * h)) ** 2))
+            out = out * 1.45 + 170 * glow[..., None]
+        return np.clip(out, 0, 255).astype(np.uint8)
+
+    def frames(self, n: int, fps: float = 25.0) -> Iterator[tuple[np.ndarray, FrameTruth]]:
+        for i in range(n):
+            t = i / fps
+            g = self.geometry(t)
+            yield self.render(t), self.truth(i, t, g)
+
+    # -- the exact bird's-eye set-up --------------------------------------------------------
+    def birdseye_config(self, size: tuple[int, int] = (400, 300), lane_px: float = 150.0) -> dict:
+        """The config section that makes the bird's-eye an exact metric view of the road plane."""
+        w, _ = size
+        half = 3.7 / 2
+        pts = np.array([[-half, self.mount.height_m, self.z_far], [half, self.mount.height_m, self.z_far],
+                        [half, self.mount.height_m, self.z_near], [-half, self.mount.height_m, self.z_near]])
+        cam = pts @ self.rot.T
+        k = self.camera.camera_matrix
+        src = (cam @ k.T)[:, :2] / (cam @ k.T)[:, 2:]
+        x0 = (w - lane_px) / 2
+        dst = [[x0, 0.0], [x0 + lane_px, 0.0], [x0 + lane_px, float(size[1])], [x0, float(size[1])]]
+        return {
+            "reference_size": list(self.size), "src": [[round(float(x), 4), round(float(y), 4)] for x, y in src],
+            "size": list(size), "dst": dst, "xm_per_px": 3.7 / lane_px,
+            "ym_per_px": (self.z_far - self.z_near) / size[1],
+        }
+
+
+def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,
+                   camera: CameraModel | None = None, mount: Mount | None = None, fps: int = 25,
+                   progress: bool = False) -> Path:
+    """Write video.mp4, gt.jsonl, camera.json and config.toml (the exact set-up) to ``out_dir``."""
+    from .config import config_from_dict, dump_config
+    from .pipeline import _udacity_camera
+    from .video import VideoInfo, VideoSink
+
+    if isinstance(scenario, str):
+        if scenario not in SCENARIOS:
+            raise LaneFinderError(f"unknown scenario {scenario!r}; choose from {', '.join(SCENARIOS)}")
+        scenario = SCENARIOS[scenario]
+    if n_frames < 1:
+        raise LaneFinderError("--frames must be at least 1")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cam = camera or _udacity_camera()
+    renderer = Renderer(cam, mount or Mount(), scenario, seed)
+    w, h = cam.image_size
+    info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
+    rows = []
+    from tqdm import tqdm
+
+    with VideoSink(out / "video.mp4", info, preset="veryfast", crf=14) as sink:
+        for img, truth in tqdm(renderer.frames(n_frames, fps), total=n_frames, disable=not progress,
+                               desc=scenario.name, unit="frame"):
+            sink.write(img)
+            rows.append(json.dumps(truth.to_json()))
+    atomic_write_text(out / "gt.jsonl", "\n".join(rows) + "\n")
+    save_camera(replace(cam, views=()), out / "camera.json")
+    cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
+    atomic_write_text(out / "config.toml", dump_config(cfg))
+    meta = {"scenario": asdict(scenario), "seed": seed, "frames": n_frames, "fps": fps,
+            "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
+    atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
+    return out

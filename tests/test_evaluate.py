@@ -1,0 +1,102 @@
+"""The TuSimple metric and the metre errors, against hand-computed cases."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from lanefinder.evaluate import bench_frame, evaluate, lane_angle, line_accuracy
+
+Y = list(range(400, 720, 10))  # 32 rows
+
+
+def vertical(x: float, first: int = 0) -> list[float]:
+    return [-2.0] * first + [float(x)] * (32 - first)
+
+
+def test_point_threshold_is_20_px_over_cos_angle():
+    # A lane leaning 45 degrees: x = y - 100; the threshold becomes 20/cos(45) = 28.28 px.
+    gt = np.array([y - 100.0 for y in Y])
+    assert lane_angle(gt, np.array(Y)) == pytest.approx(math.pi / 4)
+    assert line_accuracy(gt + 28.0, gt, 20 / math.cos(math.pi / 4)) == 1.0
+    assert line_accuracy(gt + 28.5, gt, 20 / math.cos(math.pi / 4)) == 0.0
+    # Vertical: 19.9 px passes, 20 px does not (strictly less than).
+    v = np.array(vertical(300))
+    assert line_accuracy(v + 19.9, v, 20.0) == 1.0 and line_accuracy(v + 20.0, v, 20.0) == 0.0
+
+
+def test_points_missing_in_both_count_as_correct():
+    gt = vertical(300, first=8)  # 8 absent rows, 24 present
+    pred = vertical(300, first=8)
+    assert line_accuracy(np.array(pred), np.array(gt), 20) == 1.0
+    # Predicting the absent rows too makes them wrong: 24/32.
+    assert line_accuracy(np.array(vertical(300)), np.array(gt), 20) == pytest.approx(24 / 32)
+
+
+def test_lane_matches_at_85_percent():
+    gt = vertical(300)
+    pred_ok = [300.0] * 28 + [400.0] * 4  # 28/32 = 0.875
+    pred_bad = [300.0] * 27 + [400.0] * 5  # 27/32 = 0.844
+    assert bench_frame([pred_ok], [gt], Y) == pytest.approx((0.875, 0.0, 0.0))
+    acc, fp, fn = bench_frame([pred_bad], [gt], Y)
+    assert acc == pytest.approx(27 / 32) and fp == 1.0 and fn == 1.0
+
+
+def test_fp_and_fn_counts():
+    gts = [vertical(300), vertical(600)]
+    # One good prediction, one far off: 1 matched, FP 1/2, FN 1/2, accuracy (1 + 0)/2.
+    acc, fp, fn = bench_frame([vertical(300), vertical(900)], gts, Y)
+    assert (acc, fp, fn) == pytest.approx((0.5, 0.5, 0.5))
+    # No predictions: accuracy 0, FP 0 (nothing predicted), FN 1.
+    assert bench_frame([], gts, Y) == (0.0, 0.0, 1.0)
+
+
+def test_more_than_four_truth_lanes_forgive_one_miss_and_drop_the_worst():
+    gts = [vertical(x) for x in (100, 300, 500, 700, 900)]
+    preds = [vertical(x) for x in (100, 300, 500, 700)]  # the 5th is missed
+    acc, fp, fn = bench_frame(preds, gts, Y)
+    assert acc == 1.0 and fp == 0.0 and fn == 0.0
+
+
+def test_too_many_predictions_or_too_slow_scores_zero():
+    gts = [vertical(300)]
+    preds = [vertical(x) for x in (300, 500, 700, 900)]  # 4 > 1 + 2
+    assert bench_frame(preds, gts, Y) == (0.0, 0.0, 1.0)
+    assert bench_frame([vertical(300)], gts, Y, running_time_ms=250) == (0.0, 0.0, 1.0)
+
+
+def test_wrong_number_of_points_is_a_format_error():
+    from lanefinder.errors import LaneFinderError
+
+    with pytest.raises(LaneFinderError):
+        bench_frame([[300.0] * 10], [vertical(300)], Y)
+
+
+def test_dataset_figures_and_metre_errors():
+    gt = {
+        f"frame/{i:06d}": {"lanes": [vertical(300), vertical(600)], "h_samples": Y, "offset_m": 0.1,
+                           "curvature_per_m": 1e-3, "radius_m": 1000.0 if i else 500.0}
+        for i in range(4)
+    }
+    pred = {
+        "frame/000000": {"lanes": [vertical(305), vertical(598)], "offset_m": 0.12, "curvature_per_m": 1.5e-3,
+                         "radius_m": 600.0},
+        "frame/000001": {"lanes": [vertical(300), vertical(600)], "offset_m": 0.1, "curvature_per_m": 1e-3,
+                         "radius_m": 1000.0},
+        "frame/000002": {"lanes": [vertical(300), vertical(700)], "offset_m": 0.8, "curvature_per_m": 1e-3,
+                         "radius_m": 1000.0},
+        # frame 3 missing
+    }
+    r = evaluate(gt, pred)
+    assert r.frames == 4 and r.missing_frames == 1
+    # Accuracies 1, 1, 0.5, 0 -> 0.625; FP 0, 0, 0.5, 0 -> 0.125; FN 0, 0, 0.5, 1 -> 0.375.
+    assert r.accuracy == pytest.approx(0.625) and r.fp == pytest.approx(0.125) and r.fn == pytest.approx(0.375)
+    # Offset errors 0.02, 0, 0.7 -> median 0.02.
+    assert r.offset_err_median_m == pytest.approx(0.02)
+    assert r.curvature_err_median == pytest.approx(0.0)
+    # Relative radius error only where R < 1 km: frame 0, |600 - 500| / 500.
+    assert r.radius_rel_err_median == pytest.approx(0.2)
+    # Catastrophic: frame 2 (100 px line error, 0.7 m offset error) and frame 3 (missing).
+    assert r.catastrophic_rate == pytest.approx(0.5)
