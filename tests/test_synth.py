@@ -41,7 +41,7 @@ def test_ground_truth_lines_sit_on_the_painted_markings(camera):
     hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
     for x, y in zip(truth.left_x, truth.h_samples, strict=True):
         if x >= 0 and y >= 560:  # near rows, where the marking is several pixels wide
-            h, s, v = hsv[y, round(x)]
+            h, s, _v = hsv[y, round(x)]
             assert 15 <= h <= 35 and s > 120, (x, y, hsv[y, round(x)])  # yellow paint
     assert truth.width_m == pytest.approx(3.7 + 0.1 * np.sin(0.4), abs=1e-6)
     assert truth.radius_m is None and truth.curvature_per_m == 0.0
