@@ -261,6 +261,65 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
         click.echo(f"wrote {json_path}")
 
 
+# -- setup -------------------------------------------------------------------------------
+@main.command()
+@click.option("--straight", "straight", multiple=True, type=click.Path(),
+              help="A straight-road frame (repeat, or give a folder).")
+@click.option("--video", "video_path", type=click.Path(), help="Find straight-road frames in this video.")
+@click.option("--camera", "camera_path", type=click.Path(), help="Camera file (JSON or OpenCV YAML).")
+@click.option("--lookahead", "lookahead_m", type=float, default=35.0, show_default=True,
+              help="How far ahead the view reaches, m (with a camera file).")
+@click.option("--bottom", "bottom_fraction", type=click.FloatRange(0.5, 1.0), default=0.9375, show_default=True,
+              help="Bottom row of the view as a fraction of the height (above the hood).")
+@click.option("--lane-width", "lane_width_m", type=float, default=3.7, show_default=True)
+@click.option("--dash-period", "dash_period_m", type=float, default=12.0, show_default=True,
+              help="Dash + gap length, m (the along-road scale without a camera file).")
+@click.option("-o", "--output", required=True, type=click.Path(), help="Config to write (.toml/.yaml/.json).")
+def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | None, lookahead_m: float,
+          bottom_fraction: float, lane_width_m: float, dash_period_m: float, output: str) -> None:
+    """Find the bird's-eye view and its scale for a new camera, from straight-road frames."""
+    from .autosetup import SetupOptions, auto_setup, preview, straight_frames_from_video
+    from .camera import load_camera
+    from .config import dump_config
+    from .io import atomic_write_text, check_not_input, list_images, read_image, write_image
+
+    if bool(straight) == bool(video_path):
+        raise LaneFinderError("give straight-road frames with --straight, or a video with --video")
+    camera = load_camera(camera_path) if camera_path else None
+    opts = SetupOptions(lane_width_m=lane_width_m, lookahead_m=lookahead_m, bottom_fraction=bottom_fraction,
+                        dash_period_m=dash_period_m)
+    if video_path:
+        check_not_input(output, [video_path])
+        click.echo(f"looking for straight-road frames in {video_path} ...")
+        images = straight_frames_from_video(video_path, camera, opts)
+    else:
+        paths = list_images(straight)
+        check_not_input(output, paths)
+        images = [read_image(p) for p in paths]
+    ref = "none"
+    if camera_path:
+        ref = str(Path(camera_path).resolve().relative_to(Path(output).resolve().parent)) \
+            if Path(camera_path).resolve().is_relative_to(Path(output).resolve().parent) \
+            else str(Path(camera_path).resolve())
+    result = auto_setup(images, camera, opts, camera_ref=ref)
+    for note in result.notes:
+        click.echo(f"note: {note}")
+    b = result.birdseye
+    click.echo(f"frames used: {result.frames_used} of {len(images)}; frame size {b.reference_size[0]}x"
+               f"{b.reference_size[1]}")
+    click.echo(f"vanishing point: ({result.vp[0]:.1f}, {result.vp[1]:.1f}); horizon row {result.horizon_row:.1f}")
+    click.echo("src: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in b.src))
+    click.echo("dst: " + ", ".join(f"({x:.0f}, {y:.0f})" for x, y in b.dst) + f" in a {b.size[0]}x{b.size[1]} view")
+    click.echo(f"xm_per_px = {b.xm_per_px:.6f} (lane width {lane_width_m} m over 150 px); "
+               f"ym_per_px = {b.ym_per_px:.6f} ({result.ym_source})")
+    click.echo(f"straightness: lines bend by at most {result.straightness_px:.1f} px in the bird's-eye view")
+    fmt = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(output).suffix.lower(), "toml")
+    atomic_write_text(output, dump_config(result.config(), fmt))  # type: ignore[arg-type]
+    prev = Path(output).with_name(Path(output).stem + "_preview.png")
+    write_image(prev, preview(images[0], result, camera))
+    click.echo(f"wrote {output} and {prev}; use it with: lanefinder video IN.mp4 -o OUT.mp4 -c {output}")
+
+
 def _num(v: float) -> float | None:
     return None if v != v else round(float(v), 6)
 
