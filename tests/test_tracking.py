@@ -83,8 +83,26 @@ def test_implausible_pairs_are_rejected(tracker):
 
 
 def test_low_confidence_lines_are_not_used(tracker):
-    t = tracker.update(meas(LEFT, 0.1), meas(RIGHT, 0.9), blind=True)
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    t = tracker.update(meas(LEFT, 0.1), meas(RIGHT, 0.9), blind=False)
     assert not t.left_found and t.right_found and "left-confidence" in t.checks
+
+
+def test_a_lane_is_started_from_one_line_only_when_it_is_confident(tracker):
+    t = tracker.update(meas(LEFT, 0.4), None, blind=True)
+    assert t.state == LOST and "one-line-start" in t.checks
+    t = tracker.update(meas(LEFT, 0.9), None, blind=True)
+    assert t.state == REDETECT and t.left_found and t.right_inferred
+    assert t.right_m[2] - t.left_m[2] == pytest.approx(3.7)
+
+
+def test_one_line_alone_holds_the_lane_only_so_long(tracker):
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    n = tracker.cfg.max_one_line_frames
+    states = [tracker.update(meas(LEFT), None, blind=tracker.needs_blind_search) for _ in range(n + 20)]
+    assert all(s.left_found and s.right_inferred for s in states[:n])
+    assert "one-line-too-long" in states[n].checks
+    assert states[-1].state == LOST
 
 
 def test_smoothing_damps_wobble_but_follows_a_bend(tracker):

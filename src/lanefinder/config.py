@@ -149,6 +149,9 @@ class TrackingConfig(_Section):
     max_offset_m: PositiveFloat = 1.2
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
+    max_one_line_frames: PositiveInt = 50
+    min_start_confidence: Fraction = 0.45
+    max_interior_fill: Fraction = 0.6
     smoothing: Fraction = 0.5
     min_confidence: Fraction = 0.3
 

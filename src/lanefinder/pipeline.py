@@ -7,7 +7,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from importlib import resources
 
@@ -168,8 +168,36 @@ class LaneFinder:
                 found = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
                                      found.method + "+windows", again.histogram, again.bases_px, found.band_px)
                 fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
-        track = tracker.update(self._measure(fit_l, scale), self._measure(fit_r, scale), blind)
+        meas_l, meas_r = self._measure(fit_l, scale), self._measure(fit_r, scale)
+        if self._line_inside(binary, meas_l, meas_r, scale, tracker):
+            # A marking runs down the middle of the lane these lines would make: not our lane.
+            meas_l = meas_r = None
+        track = tracker.update(meas_l, meas_r, blind)
+        if meas_l is None and meas_r is None and (fit_l or fit_r):
+            track = replace(track, checks=(*track.checks, "line-inside-lane"))
         return self._result(track, fit_l, fit_r, found, binary, scale)
+
+    def _line_inside(self, binary: np.ndarray, left: Measurement | None, right: Measurement | None, scale: Scale,
+                     tracker: LaneTracker) -> bool:
+        """True when a solid marking runs inside the middle half of the lane the measurements imply."""
+        if left is None and right is None:
+            return False
+        width = tracker.width_m or tracker.default_width_m
+        lm = left.coeffs_m if left is not None else right.coeffs_m - np.array([0, 0, width])
+        rm = right.coeffs_m if right is not None else left.coeffs_m + np.array([0, 0, width])
+        h, w = binary.shape
+        y = np.arange(0, h, 2, dtype=np.float64)
+        xl, xr = np.polyval(m_to_px(lm, scale), y), np.polyval(m_to_px(rm, scale), y)
+        lo = np.clip(np.round(xl + 0.25 * (xr - xl)), 0, w).astype(np.intp)
+        hi = np.clip(np.round(xr - 0.25 * (xr - xl)), 0, w).astype(np.intp)
+        rows = binary[::2]
+        csum = np.concatenate([np.zeros((rows.shape[0], 1), np.int32), np.cumsum(rows, axis=1, dtype=np.int32)], 1)
+        idx = np.arange(rows.shape[0])
+        counts = csum[idx, hi] - csum[idx, lo]
+        valid = hi > lo
+        # A marking is ~0.15 m wide; thin cracks and tyre streaks are not.
+        min_px = max(2, round(0.6 * self.config.search.marking_width_m / scale.xm_per_px))
+        return bool(valid.sum() > 10 and (counts[valid] >= min_px).mean() > self.config.tracking.max_interior_fill)
 
     @staticmethod
     def _measure(fit: LineFit | None, scale: Scale) -> Measurement | None:

@@ -72,6 +72,9 @@ class LaneTracker:
     # guess, so a measurement of it is not held to the jump limit.
     left_guessed: int = 0
     right_guessed: int = 0
+    # Frames since both lines were last accepted together: one line alone holds the lane only
+    # so long, and a lane is only started (or restarted after "lost") from both lines.
+    since_both: int = 0
     stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
 
     @property
@@ -84,6 +87,7 @@ class LaneTracker:
         self.width_m = None
         self.misses = 0
         self.left_guessed = self.right_guessed = 0
+        self.since_both = 0
 
     # -- checks -------------------------------------------------------------------------
     def _pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
@@ -155,8 +159,17 @@ class LaneTracker:
                 conf_l *= 0.5
                 conf_r *= 0.5
 
+        if ok_l != ok_r:
+            one_conf = conf_l if ok_l else conf_r
+            if (self.left is None or self.right is None) and one_conf < c.min_start_confidence:
+                checks.append("one-line-start")
+                return self._miss(checks, conf_l, conf_r, blind)
+            if self.since_both >= c.max_one_line_frames:
+                checks.append("one-line-too-long")
+                return self._miss(checks, conf_l, conf_r, blind)
         if not ok_l and not ok_r:
             return self._miss(checks, conf_l, conf_r, blind)
+        self.since_both = 0 if ok_l and ok_r else self.since_both + 1
 
         width = self.width_m if self.width_m is not None else self.default_width_m
         if ok_l and ok_r:
@@ -209,6 +222,7 @@ class LaneTracker:
 
     def _miss(self, checks: list[str], conf_l: float, conf_r: float, blind: bool) -> TrackedLane:
         self.misses += 1
+        self.since_both += 1
         self.stats["rejected"] += 1
         if self.left is None or self.right is None or self.misses > self.cfg.lost_after:
             self.reset()
