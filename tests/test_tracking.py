@@ -102,7 +102,8 @@ def test_one_line_alone_holds_the_lane_only_so_long(tracker):
     states = [tracker.update(meas(LEFT), None, blind=tracker.needs_blind_search) for _ in range(n + 20)]
     assert all(s.left_found and s.right_inferred for s in states[:n])
     assert "one-line-too-long" in states[n].checks
-    assert states[-1].state == LOST
+    # Held for lost_after more frames, then "lost" (until a confident start).
+    assert states[n + tracker.cfg.lost_after].state == LOST
 
 
 def test_smoothing_damps_wobble_but_follows_a_bend(tracker):
