@@ -101,7 +101,7 @@ def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.n
 
 
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
-             max_points: int = 1200) -> LineFit | None:
+             max_points: int = 600) -> LineFit | None:
     """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
 
     Pixels covering less than ``min_span_fraction`` of the height get a straight fit.

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 from functools import cache
 from importlib import resources
 
+import cv2
 import numpy as np
 
 from .birdseye import BirdsEye, make_birdseye
@@ -190,9 +191,9 @@ class LaneFinder:
         xl, xr = np.polyval(m_to_px(lm, scale), y), np.polyval(m_to_px(rm, scale), y)
         lo = np.clip(np.round(xl + 0.25 * (xr - xl)), 0, w).astype(np.intp)
         hi = np.clip(np.round(xr - 0.25 * (xr - xl)), 0, w).astype(np.intp)
-        rows = binary[::2]
-        csum = np.concatenate([np.zeros((rows.shape[0], 1), np.int32), np.cumsum(rows, axis=1, dtype=np.int32)], 1)
-        idx = np.arange(rows.shape[0])
+        integral = cv2.integral(binary[::2])  # (rows+1) x (w+1) running sums
+        csum = integral[1:] - integral[:-1]  # per row: sums of columns [0, c)
+        idx = np.arange(csum.shape[0])
         counts = csum[idx, hi] - csum[idx, lo]
         valid = hi > lo
         # A marking is ~0.15 m wide; thin cracks and tyre streaks are not.

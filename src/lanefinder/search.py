@@ -196,13 +196,22 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams) -> LinePixel
     return LinePixels(lp.x, lp.y, tuple(windows))
 
 
-def sliding_windows(binary: np.ndarray, cfg: SearchParams, car_x: float,
-                    pixels: Pixels | None = None) -> SearchResult:
-    """Histogram of the lower image for the line bases, then windows stepping up."""
+def _blind(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None, method: str) -> SearchResult:
+    """Line bases from the column histogram, then each line followed up by ``method``."""
     px = pixels or Pixels.of(binary)
     hist = base_histogram(binary, cfg.histogram_fraction)
     bases = find_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance, min_count=cfg.min_pixels / 4)
-    return SearchResult(_windows_for(px, bases[0], cfg), _windows_for(px, bases[1], cfg), "windows", hist, bases)
+    if method == "segments":
+        left, right = _segments_for(binary, px, bases[0], cfg), _segments_for(binary, px, bases[1], cfg)
+    else:
+        left, right = _windows_for(px, bases[0], cfg), _windows_for(px, bases[1], cfg)
+    return SearchResult(left, right, method, hist, bases)
+
+
+def sliding_windows(binary: np.ndarray, cfg: SearchParams, car_x: float,
+                    pixels: Pixels | None = None) -> SearchResult:
+    """Histogram of the lower image for the line bases, then windows stepping up."""
+    return _blind(binary, cfg, car_x, pixels, "windows")
 
 
 def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: SearchParams) -> LinePixels:
@@ -211,6 +220,7 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
     h, w = binary.shape
     seg_h = h / cfg.n_windows
     x_c, step = float(base), 0.0
+    last_x: float | None = None
     parts: list[np.ndarray] = []
     windows: list[Window] = []
     reach = 2 * cfg.margin_px
@@ -232,10 +242,13 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
                 found = sel.size >= cfg.min_pixels / 2
                 if found:
                     parts.append(sel + sl.start)
-                    step = 0.5 * step + 0.5 * (peak_x - x_c) if i else 0.0
+                    step = 0.5 * step + 0.5 * (peak_x - last_x) if last_x is not None else 0.0
+                    last_x = peak_x
                     x_c = peak_x + step
         windows.append((int(x_c - cfg.margin_px / 2), y_lo, int(x_c + cfg.margin_px / 2), y_hi, bool(found)))
         if not found:
+            last_x = None
+            step *= 0.5
             x_c += step
     lp = _take(px, parts)
     return LinePixels(lp.x, lp.y, tuple(windows))
@@ -244,18 +257,12 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
 def segment_search(binary: np.ndarray, cfg: SearchParams, car_x: float,
                    pixels: Pixels | None = None) -> SearchResult:
     """Histograms segment by segment, following each line up and rejecting implausible peaks."""
-    px = pixels or Pixels.of(binary)
-    hist = base_histogram(binary, cfg.histogram_fraction)
-    bases = find_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance, min_count=cfg.min_pixels / 4)
-    return SearchResult(_segments_for(binary, px, bases[0], cfg), _segments_for(binary, px, bases[1], cfg),
-                        "segments", hist, bases)
+    return _blind(binary, cfg, car_x, pixels, "segments")
 
 
 def blind_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None = None) -> SearchResult:
-    """The configured search that needs no previous fit."""
-    if cfg.method == "segments":
-        return segment_search(binary, cfg, car_x, pixels)
-    return sliding_windows(binary, cfg, car_x, pixels)
+    """The configured search that needs no previous fit (``cfg.method``: windows or segments)."""
+    return _blind(binary, cfg, car_x, pixels, cfg.method)
 
 
 def _around(px: Pixels, fit: np.ndarray | None, margin: float) -> LinePixels:
