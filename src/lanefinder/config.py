@@ -132,7 +132,7 @@ class FitConfig(_Section):
     full_support_m: PositiveFloat = 1.9
     residual_scale_m: PositiveFloat = 0.09
     min_span_fraction: Fraction = 0.25
-    parallel: Fraction = 0.7
+    parallel: Fraction = 1.0
     max_radius_m: PositiveFloat = 10000.0
     straight_radius_m: PositiveFloat = 3000.0
 

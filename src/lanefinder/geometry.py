@@ -101,7 +101,7 @@ def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.n
 
 
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
-             max_points: int = 600) -> LineFit | None:
+             max_points: int = 1200) -> LineFit | None:
     """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
 
     Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
@@ -134,10 +134,11 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
              cfg: FitParams) -> tuple[LineFit | None, LineFit | None]:
     """Fit both lines; where both exist, pull their shapes towards each other.
 
-    Lane lines are (nearly) parallel, so the shape (a, b) of each line moves a fraction
-    ``cfg.parallel`` of the way to the support-weighted shared shape, and its position c
-    is refit as the median of the residual.  A short dashed line then borrows the shape
-    of a long solid one instead of extrapolating its own.
+    Lane lines are (nearly) parallel, so the shape (a, b) of each line moves towards the
+    support-weighted shared shape, by up to ``cfg.parallel`` and by the other line's share of
+    the squared support; its position c is refit as the median of the residual.  A
+    short dashed line then borrows the shape of a long solid one instead of extrapolating
+    its own, and the solid one keeps its own.
     """
     fl = fit_line(left[0], left[1], height_px, cfg)
     fr = fit_line(right[0], right[1], height_px, cfg)
@@ -148,8 +149,11 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         return fl, fr
     shared = (wl * fl.coeffs_px[:2] + wr * fr.coeffs_px[:2]) / (wl + wr)
     out = []
-    for fit, (x, y) in ((fl, left), (fr, right)):
-        ab = (1 - cfg.parallel) * fit.coeffs_px[:2] + cfg.parallel * shared
+    pull_l, pull_r = wr**2 / (wl**2 + wr**2), wl**2 / (wl**2 + wr**2)
+    for fit, (x, y), pull in ((fl, left, pull_l), (fr, right, pull_r)):
+        # The weaker line moves more: up to ``parallel`` of the way, in proportion to the other's support.
+        lam = cfg.parallel * pull
+        ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
         yy = y.astype(np.float64)
         c = float(np.median(x - (ab[0] * yy + ab[1]) * yy))
         out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))

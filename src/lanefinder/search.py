@@ -29,6 +29,7 @@ class SearchParams:
     around_margin_px: float
     expected_width_px: float
     width_tolerance: float
+    marking_px: float = 6.0
 
 
 def search_params(cfg: SearchParams, xm_per_px: float, ym_per_px: float, height_px: int) -> SearchParams:
@@ -43,6 +44,7 @@ def search_params(cfg: SearchParams, xm_per_px: float, ym_per_px: float, height_
         around_margin_px=cfg.around_margin_m / xm_per_px,
         expected_width_px=cfg.lane_width_m / xm_per_px,
         width_tolerance=cfg.width_tolerance,
+        marking_px=cfg.marking_width_m / xm_per_px,
     )
 
 
