@@ -97,16 +97,24 @@ def contact_sheet(thumbs: list[tuple[float, np.ndarray]], cols: int = 5) -> np.n
     return sheet
 
 
-def _sigterm_as_interrupt() -> Callable[[], None]:
-    """Treat SIGTERM like Ctrl-C while the job runs (main thread only); returns the undo."""
+def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
+    """Ctrl-C (SIGINT) or SIGTERM set ``stop``, so the job ends at a frame boundary with the video and the
+    telemetry in step; a second signal acts as usual.  Main thread only; returns the undo."""
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
 
-    def handler(signum, frame):
-        raise KeyboardInterrupt
+    def restore() -> None:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
-    old = signal.signal(signal.SIGTERM, handler)
-    return lambda: signal.signal(signal.SIGTERM, old)
+    def handler(signum, frame) -> None:
+        stop.set()
+        restore()
+
+    for sig in old:
+        signal.signal(sig, handler)
+    return restore
 
 
 def process_video(
@@ -181,7 +189,8 @@ def process_video(
     enc = threading.Thread(target=encode, name="lanefinder-encode", daemon=True)
     dec.start()
     enc.start()
-    undo_signal = _sigterm_as_interrupt()
+    interrupt = threading.Event()
+    undo_signal = _stop_on_signals(interrupt)
     thumbs: list[tuple[float, np.ndarray]] = []
     n = both = 0
     interrupted = False
@@ -189,6 +198,9 @@ def process_video(
     bar = tqdm(total=expected, unit="frame", disable=not progress, dynamic_ncols=True, desc=src.name)
     try:
         while (f := in_q.get()) is not _END:
+            if interrupt.is_set():
+                interrupted = True
+                break
             if stop.is_set():
                 break
             result = finder.process(f.image)
@@ -206,6 +218,7 @@ def process_video(
             n += 1
             both += result.left_found and result.right_found
             bar.update(1)
+        interrupted = interrupted or interrupt.is_set()
     except KeyboardInterrupt:
         interrupted = True
     finally:
