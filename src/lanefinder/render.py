@@ -58,7 +58,7 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
     return frame
 
 
-def hud_lines(result: LaneResult, straight_radius_m: float | None = None) -> list[str]:
+def hud_lines(result: LaneResult) -> list[str]:
     """The HUD text for a result."""
     if not result.lane_found:
         return ["lane lost"]

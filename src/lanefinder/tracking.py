@@ -178,10 +178,10 @@ class LaneTracker:
             self.width_m = w_meas if self.width_m is None else self.width_m + 0.1 * (w_meas - self.width_m)
         elif ok_l:
             meas_l = left.coeffs_m
-            meas_r = self._shift(meas_l, width) if self.right is None or blind else self._parallel_to(meas_l, width)
+            meas_r = self._shift(meas_l, width)  # the missing line: parallel, one lane width away
         else:
             meas_r = right.coeffs_m
-            meas_l = self._shift(meas_r, -width) if self.left is None or blind else self._parallel_to(meas_r, -width)
+            meas_l = self._shift(meas_r, -width)
         if not self._offset_ok(meas_l, meas_r):
             # One line seen, and the lane it implies would not hold the car: not this lane.
             checks.append("offset")
@@ -206,9 +206,6 @@ class LaneTracker:
         out = coeffs.copy()
         out[2] += dx
         return out
-
-    def _parallel_to(self, coeffs: np.ndarray, dx: float) -> np.ndarray:
-        return self._shift(coeffs, dx)
 
     def _smooth(self, old: np.ndarray, new: np.ndarray, conf: float) -> np.ndarray:
         # Exponential smoothing weighted by confidence.  The gain rises with the size of the
