@@ -122,7 +122,7 @@ class LaneFinder:
                 self._camera = camera_from_config(self.config, frame_size)
             be = birdseye_from_config(self.config, self._camera, tuple(frame_size))
             self._birdseye = be
-            self.search_px = search_params(self.config.search, be.xm_per_px, be.ym_per_px, be.size[1])
+            self.search_px = search_params(self.config.search, be.xm_per_px, be.ym_per_px)
             self.fit_px = fit_params(self.config.fit, be.xm_per_px, be.ym_per_px, self.config.search.marking_width_m)
             lookahead = be.size[1] * be.ym_per_px
             self.tracker = LaneTracker(self.config.tracking, lookahead)
@@ -183,9 +183,7 @@ class LaneFinder:
         """True when a solid marking runs inside the middle half of the lane the measurements imply."""
         if left is None and right is None:
             return False
-        width = tracker.width_m or tracker.default_width_m
-        lm = left.coeffs_m if left is not None else right.coeffs_m - np.array([0, 0, width])
-        rm = right.coeffs_m if right is not None else left.coeffs_m + np.array([0, 0, width])
+        lm, rm = tracker.implied_lane(left.coeffs_m if left else None, right.coeffs_m if right else None)
         h, w = binary.shape
         y = np.arange(0, h, 2, dtype=np.float64)
         xl, xr = np.polyval(m_to_px(lm, scale), y), np.polyval(m_to_px(rm, scale), y)

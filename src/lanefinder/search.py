@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .config import SearchConfig
+
 # A window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels; found tells if it held enough pixels.
 Window = tuple[int, int, int, int, bool]
 
@@ -32,7 +34,7 @@ class SearchParams:
     marking_px: float = 6.0
 
 
-def search_params(cfg: SearchParams, xm_per_px: float, ym_per_px: float, height_px: int) -> SearchParams:
+def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
     """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
     per_m = cfg.marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
     return SearchParams(

@@ -73,7 +73,7 @@ class LaneTracker:
     left_guessed: int = 0
     right_guessed: int = 0
     # Frames since both lines were last accepted together: one line alone holds the lane only
-    # so long, and a lane is only started (or restarted after "lost") from both lines.
+    # so long, and starts (or restarts after "lost") a lane only when it is confident.
     since_both: int = 0
     stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
 
@@ -171,17 +171,10 @@ class LaneTracker:
             return self._miss(checks, conf_l, conf_r, blind)
         self.since_both = 0 if ok_l and ok_r else self.since_both + 1
 
-        width = self.width_m if self.width_m is not None else self.default_width_m
+        meas_l, meas_r = self.implied_lane(left.coeffs_m if ok_l else None, right.coeffs_m if ok_r else None)
         if ok_l and ok_r:
-            meas_l, meas_r = left.coeffs_m, right.coeffs_m
             w_meas = float(meas_r[2] - meas_l[2])
             self.width_m = w_meas if self.width_m is None else self.width_m + 0.1 * (w_meas - self.width_m)
-        elif ok_l:
-            meas_l = left.coeffs_m
-            meas_r = self._shift(meas_l, width)  # the missing line: parallel, one lane width away
-        else:
-            meas_r = right.coeffs_m
-            meas_l = self._shift(meas_r, -width)
         if not self._offset_ok(meas_l, meas_r):
             # One line seen, and the lane it implies would not hold the car: not this lane.
             checks.append("offset")
@@ -201,11 +194,17 @@ class LaneTracker:
         return TrackedLane(self.left.copy(), self.right.copy(), ok_l, ok_r, not ok_l, not ok_r,
                            conf_l, conf_r, REDETECT if blind else TRACKING, 0, tuple(checks))
 
-    @staticmethod
-    def _shift(coeffs: np.ndarray, dx: float) -> np.ndarray:
-        out = coeffs.copy()
-        out[2] += dx
-        return out
+    def implied_lane(self, left: np.ndarray | None, right: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Both lines from one or two metre fits: a missing line is the other one shifted by the
+        tracked lane width (the default width before any is tracked)."""
+        width = self.width_m if self.width_m is not None else self.default_width_m
+        if left is None and right is None:
+            raise ValueError("implied_lane needs at least one line")
+        if left is None:
+            left = right - np.array([0.0, 0.0, width])
+        if right is None:
+            right = left + np.array([0.0, 0.0, width])
+        return left, right
 
     def _smooth(self, old: np.ndarray, new: np.ndarray, conf: float) -> np.ndarray:
         # Exponential smoothing weighted by confidence.  The gain rises with the size of the
