@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -118,3 +119,44 @@ def test_segment_search_finds_the_lines_too(test_images):
         both += r.left_found and r.right_found
     # test1's right line has dashes only far up; the segment search leaves it inferred.
     assert both >= 7
+
+
+def _flipped(img: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(img[:, ::-1])
+
+
+def test_a_yellow_line_is_never_the_right_line_of_the_lane(test_images):
+    # Mirrored, straight_lines1 has its yellow line on the right of the car.
+    img = _flipped(test_images["straight_lines1"])
+    r = LaneFinder(Config()).process(img)  # yellow_line_side = "left" (right-hand traffic)
+    assert "right-is-yellow" in r.checks
+    assert r.lane_found and r.left_found and not r.right_found and r.right_inferred
+    mirrored = Config.model_validate({"tracking": {"yellow_line_side": "right"}})
+    r = LaneFinder(mirrored).process(img)  # left-hand traffic: yellow on the right is fine
+    assert r.left_found and r.right_found and not r.checks
+    assert 3.45 <= r.width_m <= 4.2
+
+
+def _lane_binary(be_size: tuple[int, int], middle: str, seed: int = 0) -> np.ndarray:
+    """Bird's-eye binary: solid lines at x = 125 and 275 px, and ``middle`` between them."""
+    w, h = be_size
+    b = np.zeros((h, w), np.uint8)
+    b[:, 122:128] = 1
+    b[:, 272:278] = 1
+    if middle == "line":
+        b[:, 197:203] = 1  # a solid marking down the middle of the lane
+    elif middle == "clutter":
+        rng = np.random.default_rng(seed)
+        for _ in range(30):  # short slanted streaks, like sunlit gaps between tree shadows
+            x, y = int(rng.integers(160, 240)), int(rng.integers(0, h - 30))
+            cv2.line(b, (x, y), (x + int(rng.integers(-20, 20)), y + 30), 1, 4)
+    return b
+
+
+@pytest.mark.parametrize(("middle", "found"), [("none", True), ("clutter", True), ("line", False)])
+def test_a_solid_marking_inside_the_lane_rejects_it_but_clutter_does_not(middle, found):
+    finder = LaneFinder(Config())
+    be = finder.birdseye((1280, 720))
+    r = finder.process_binary(_lane_binary(be.size, middle), be)
+    assert r.lane_found is found, r.checks
+    assert ("line-inside-lane" in r.checks) is (not found)

@@ -146,14 +146,21 @@ class TrackingConfig(_Section):
     max_parallel_diff_m: PositiveFloat = 0.9
     max_curvature_diff: PositiveFloat = 0.004
     max_offset_jump_m: PositiveFloat = 0.4
-    max_offset_m: PositiveFloat = 1.2
+    max_offset_m: PositiveFloat = 0.9
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
     max_one_line_frames: PositiveInt = 50
     min_start_confidence: Fraction = 0.45
+    start_frames: PositiveInt = 3
     max_interior_fill: Fraction = 0.6
     smoothing: Fraction = 0.5
     min_confidence: Fraction = 0.3
+    # Where a yellow marking may bound the car's lane: "left" for right-hand traffic as in North
+    # America (yellow separates opposing traffic, so it is never the lane's right line), "right"
+    # for the mirror case, "either" to ignore colour.
+    yellow_line_side: Literal["left", "right", "either"] = "left"
+    yellow_fraction: Fraction = 0.5
+    yellow_saturation: Fraction = 0.45
 
     @model_validator(mode="after")
     def _check_widths(self) -> TrackingConfig:

@@ -191,6 +191,12 @@ def radius_from_curvature(k: float, max_radius_m: float) -> float:
     return float(1.0 / abs(k))
 
 
+def lane_width_m(left_m: np.ndarray, right_m: np.ndarray) -> float:
+    """Lane width at the car (m), across the lane: the x gap times the cosine of the lane's heading."""
+    slope = (float(left_m[1]) + float(right_m[1])) / 2
+    return float((right_m[2] - left_m[2]) / math.hypot(1.0, slope))
+
+
 @dataclass(frozen=True)
 class LaneGeometry:
     """Lane numbers at the car (the bird's-eye bottom row), metres; see module docstring."""
@@ -215,6 +221,6 @@ def lane_geometry(left_m: np.ndarray, right_m: np.ndarray, cfg: FitConfig) -> La
         left_radius_m=radius_from_curvature(curvature_per_m(left_m), cfg.max_radius_m),
         right_radius_m=radius_from_curvature(curvature_per_m(right_m), cfg.max_radius_m),
         offset_m=float(-centre[2]),
-        width_m=float(right_m[2] - left_m[2]),
+        width_m=lane_width_m(left_m, right_m),
         straight=radius >= cfg.straight_radius_m,
     )

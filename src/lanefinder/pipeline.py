@@ -11,7 +11,6 @@ from dataclasses import dataclass, replace
 from functools import cache
 from importlib import resources
 
-import cv2
 import numpy as np
 
 from .birdseye import BirdsEye, make_birdseye
@@ -19,7 +18,7 @@ from .camera import CameraModel, load_camera
 from .config import Config
 from .errors import LaneFinderError
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, lane_geometry, m_to_px, px_to_m
-from .search import Pixels, SearchParams, SearchResult, blind_search, search_around, search_params
+from .search import LinePixels, Pixels, SearchParams, SearchResult, blind_search, search_around, search_params
 from .threshold import threshold
 from .tracking import LOST, LaneTracker, Measurement, TrackedLane
 
@@ -141,11 +140,16 @@ class LaneFinder:
         if frame is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
             raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
         be = self.birdseye((frame.shape[1], frame.shape[0]))
-        binary = threshold(be.warp(frame), self.config.threshold, be.xm_per_px)
-        return self.process_binary(binary, be)
+        view = be.warp(frame)
+        binary = threshold(view, self.config.threshold, be.xm_per_px)
+        return self.process_binary(binary, be, view)
 
-    def process_binary(self, binary: np.ndarray, be: BirdsEye) -> LaneResult:
-        """Search, fit and track on a bird's-eye binary (uint8 0/1)."""
+    def process_binary(self, binary: np.ndarray, be: BirdsEye, view: np.ndarray | None = None) -> LaneResult:
+        """Search, fit and track on a bird's-eye binary (uint8 0/1).
+
+        ``view`` is the bird's-eye colour image (BGR); with it, a yellow line is only taken as the
+        side of the lane that ``tracking.yellow_line_side`` allows.
+        """
         tracker, sp, fp = self.tracker, self.search_px, self.fit_px
         assert tracker is not None and sp is not None and fp is not None
         scale = self.scale(be)
@@ -170,33 +174,76 @@ class LaneFinder:
                                      found.method + "+windows", again.histogram, again.bases_px, found.band_px)
                 fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
         meas_l, meas_r = self._measure(fit_l, scale), self._measure(fit_r, scale)
-        if self._line_inside(binary, meas_l, meas_r, scale, tracker):
-            # A marking runs down the middle of the lane these lines would make: not our lane.
+        colour_checks: tuple[str, ...] = ()
+        if view is not None and self.config.tracking.yellow_line_side != "either":
+            meas_l, meas_r, colour_checks = self._yellow_side(view, found, meas_l, meas_r)
+        if self._line_inside(pixels, meas_l, meas_r, scale, tracker):
+            # A solid marking runs down the middle of the lane these lines would make: not our lane.
             meas_l = meas_r = None
+            colour_checks = (*colour_checks, "line-inside-lane")
         track = tracker.update(meas_l, meas_r, blind)
-        if meas_l is None and meas_r is None and (fit_l or fit_r):
-            track = replace(track, checks=(*track.checks, "line-inside-lane"))
+        if colour_checks:
+            track = replace(track, checks=(*colour_checks, *track.checks))
         return self._result(track, fit_l, fit_r, found, binary, scale)
 
-    def _line_inside(self, binary: np.ndarray, left: Measurement | None, right: Measurement | None, scale: Scale,
+    def _is_yellow(self, view: np.ndarray, line: LinePixels) -> bool:
+        """Most of the line's pixels are saturated yellow (paint, not dry grass or sunlit asphalt)."""
+        if line.x.size == 0:
+            return False
+        t = self.config.tracking
+        px = view[line.y.astype(np.intp), line.x.astype(np.intp)].astype(np.float32)
+        blue, red = px[:, 0], px[:, 2]
+        yellow = (red - blue > self.config.threshold.ridge.yellow_min) & (blue < (1 - t.yellow_saturation) * red)
+        return bool(yellow.mean() > t.yellow_fraction)
+
+    def _yellow_side(self, view: np.ndarray, found: SearchResult, left: Measurement | None,
+                     right: Measurement | None) -> tuple[Measurement | None, Measurement | None, tuple[str, ...]]:
+        """Enforce ``yellow_line_side``.  A yellow line found as the right line (for "left") is not
+        our right line: if it passes left of the car, and the left line is not yellow too, it is
+        our left line and what was found beyond it belongs to another lane; otherwise it is dropped."""
+        side = self.config.tracking.yellow_line_side
+        if side == "left" and right is not None and self._is_yellow(view, found.right):
+            if right.coeffs_m[2] < 0 and not (left is not None and self._is_yellow(view, found.left)):
+                return right, None, ("right-is-yellow",)
+            return left, None, ("right-is-yellow",)
+        if side == "right" and left is not None and self._is_yellow(view, found.left):
+            if left.coeffs_m[2] > 0 and not (right is not None and self._is_yellow(view, found.right)):
+                return None, left, ("left-is-yellow",)
+            return None, right, ("left-is-yellow",)
+        return left, right, ()
+
+    def _line_inside(self, pixels: Pixels, left: Measurement | None, right: Measurement | None, scale: Scale,
                      tracker: LaneTracker) -> bool:
-        """True when a solid marking runs inside the middle half of the lane the measurements imply."""
+        """True when a solid marking runs down the middle half of the lane the measurements imply.
+
+        Set pixels in the middle half are placed by their distance from the lane centre, in
+        0.2 m strips; a marking parallel to the lane keeps to one strip (or two neighbours) on more
+        than ``max_interior_fill`` of the rows, and on 40% more rows than the median strip, while
+        shadows and cracks wander across strips.
+        """
         if left is None and right is None:
             return False
         lm, rm = tracker.implied_lane(left.coeffs_m if left else None, right.coeffs_m if right else None)
-        h, w = binary.shape
-        y = np.arange(0, h, 2, dtype=np.float64)
-        xl, xr = np.polyval(m_to_px(lm, scale), y), np.polyval(m_to_px(rm, scale), y)
-        lo = np.clip(np.round(xl + 0.25 * (xr - xl)), 0, w).astype(np.intp)
-        hi = np.clip(np.round(xr - 0.25 * (xr - xl)), 0, w).astype(np.intp)
-        integral = cv2.integral(binary[::2])  # (rows+1) x (w+1) running sums
-        csum = integral[1:] - integral[:-1]  # per row: sums of columns [0, c)
-        idx = np.arange(csum.shape[0])
-        counts = csum[idx, hi] - csum[idx, lo]
-        valid = hi > lo
-        # A marking is ~0.15 m wide; thin cracks and tyre streaks are not.
-        min_px = max(2, round(0.6 * self.config.search.marking_width_m / scale.xm_per_px))
-        return bool(valid.sum() > 10 and (counts[valid] >= min_px).mean() > self.config.tracking.max_interior_fill)
+        h, w = pixels.shape
+        rows = np.arange(h, dtype=np.float64)
+        xl, xr = np.polyval(m_to_px(lm, scale), rows), np.polyval(m_to_px(rm, scale), rows)
+        centre, quarter = (xl + xr) / 2, (xr - xl) / 4
+        valid = (quarter > 0) & (centre - quarter >= 0) & (centre + quarter < w)
+        if valid.sum() <= 10:
+            return False
+        strip_px = 0.2 / scale.xm_per_px
+        n_strips = int(np.ceil(2 * quarter[valid].max() / strip_px)) + 1
+        ys = pixels.y
+        s = pixels.x - centre[ys]
+        inside = valid[ys] & (np.abs(s) < quarter[ys])
+        strip = ((s[inside] + quarter[ys[inside]]) / strip_px).astype(np.intp)
+        counts = np.bincount(ys[inside] * n_strips + strip, minlength=h * n_strips).reshape(h, n_strips)
+        present = counts[valid] >= 2
+        pair = present[:, :-1] | present[:, 1:] if n_strips > 1 else present
+        fill = pair.mean(axis=0)
+        # A marking stands out from the rest of the lane; dense clutter fills every strip alike.
+        best = float(fill.max())
+        return best > self.config.tracking.max_interior_fill and best - float(np.median(fill)) > 0.4
 
     @staticmethod
     def _measure(fit: LineFit | None, scale: Scale) -> Measurement | None:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import TrackingConfig
-from .geometry import curvature_per_m
+from .geometry import curvature_per_m, lane_width_m
 
 TRACKING, REDETECT, LOST = "tracking", "re-detect", "lost"
 
@@ -75,6 +75,11 @@ class LaneTracker:
     # Frames since both lines were last accepted together: one line alone holds the lane only
     # so long, and starts (or restarts after "lost") a lane only when it is confident.
     since_both: int = 0
+    # While there is no lane: the last candidate lane (left, right, sightings, frames since).
+    candidate: tuple[np.ndarray, np.ndarray, int, int] | None = None
+    # A lane was shown and then lost since the clip began: a weak start must then be confirmed
+    # (at the start of a clip, or for a single image, the first plausible lane is taken).
+    was_lost: bool = False
     stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
 
     @property
@@ -83,11 +88,14 @@ class LaneTracker:
         return self.left is None or self.right is None or self.misses >= self.cfg.max_misses
 
     def reset(self) -> None:
+        """Forget the track, as at the start of a clip."""
+        self.was_lost = False
         self.left = self.right = None
         self.width_m = None
         self.misses = 0
         self.left_guessed = self.right_guessed = 0
         self.since_both = 0
+        self.candidate = None
 
     # -- checks -------------------------------------------------------------------------
     def _pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
@@ -96,7 +104,8 @@ class LaneTracker:
         w_near = rm[2] - lm[2]
         w_far = _x_at(rm, self.lookahead_m) - _x_at(lm, self.lookahead_m)
         w_mid = _x_at(rm, self.lookahead_m / 2) - _x_at(lm, self.lookahead_m / 2)
-        if not c.min_width_m <= w_near <= c.max_width_m:
+        width = lane_width_m(lm, rm)
+        if not c.min_width_m <= width <= c.max_width_m:
             problems.append("width")
         if not self._offset_ok(lm, rm):
             problems.append("offset")
@@ -105,7 +114,7 @@ class LaneTracker:
         if abs(curvature_per_m(lm) - curvature_per_m(rm)) > c.max_curvature_diff:
             problems.append("curvature")
         tracked_width = self.width_m is not None and not self.needs_blind_search
-        if tracked_width and abs(w_near - self.width_m) > c.max_width_change_m:
+        if tracked_width and abs(width - self.width_m) > c.max_width_change_m:
             problems.append("width-change")
         return problems
 
@@ -133,10 +142,14 @@ class LaneTracker:
             checks.append("left-confidence")
         if right is not None and not ok_r:
             checks.append("right-confidence")
-        if ok_l and not self._jump_ok(left.coeffs_m, None if self.left_guessed else self.left):
+        # A line that was only guessed may come back away from the guess, but only beside a line
+        # that is where the track expects it: a lone line far from the track is not trusted.
+        near_l = ok_l and self._jump_ok(left.coeffs_m, self.left)
+        near_r = ok_r and self._jump_ok(right.coeffs_m, self.right)
+        if ok_l and not near_l and not (self.left_guessed and near_r):
             ok_l = False
             checks.append("left-jump")
-        if ok_r and not self._jump_ok(right.coeffs_m, None if self.right_guessed else self.right):
+        if ok_r and not near_r and not (self.right_guessed and near_l):
             ok_r = False
             checks.append("right-jump")
         conf_l = left.confidence if left is not None else 0.0
@@ -169,11 +182,18 @@ class LaneTracker:
                 return self._miss(checks, conf_l, conf_r, blind)
         if not ok_l and not ok_r:
             return self._miss(checks, conf_l, conf_r, blind)
-        self.since_both = 0 if ok_l and ok_r else self.since_both + 1
 
         meas_l, meas_r = self.implied_lane(left.coeffs_m if ok_l else None, right.coeffs_m if ok_r else None)
+        if self.left is None or self.right is None:
+            strong = ok_l and ok_r and min(conf_l, conf_r) >= c.min_start_confidence
+            if self.was_lost and not strong and not self._confirmed(meas_l, meas_r, ok_l and ok_r):
+                # A weak start must show the same lane on start_frames frames in a row.
+                checks.append("confirming")
+                return self._miss(checks, conf_l, conf_r, blind, keep_candidate=True)
+        self.candidate = None
+        self.since_both = 0 if ok_l and ok_r else self.since_both + 1
         if ok_l and ok_r:
-            w_meas = float(meas_r[2] - meas_l[2])
+            w_meas = lane_width_m(meas_l, meas_r)
             self.width_m = w_meas if self.width_m is None else self.width_m + 0.1 * (w_meas - self.width_m)
         if not self._offset_ok(meas_l, meas_r):
             # One line seen, and the lane it implies would not hold the car: not this lane.
@@ -200,10 +220,12 @@ class LaneTracker:
         width = self.width_m if self.width_m is not None else self.default_width_m
         if left is None and right is None:
             raise ValueError("implied_lane needs at least one line")
+        # Across the road, at the car, the other line is ``width`` away along the normal of the
+        # seen line: sqrt(1 + slope^2) times that in x when the car is not parallel to the lane.
         if left is None:
-            left = right - np.array([0.0, 0.0, width])
+            left = right - np.array([0.0, 0.0, width * float(np.hypot(1.0, right[1]))])
         if right is None:
-            right = left + np.array([0.0, 0.0, width])
+            right = left + np.array([0.0, 0.0, width * float(np.hypot(1.0, left[1]))])
         return left, right
 
     def _smooth(self, old: np.ndarray, new: np.ndarray, conf: float) -> np.ndarray:
@@ -216,12 +238,30 @@ class LaneTracker:
         gain = float(np.clip((1 - base) * (0.4 + 0.6 * conf) + 0.3 * min(change, 1.0), 0.05, 1.0))
         return old + gain * (new - old)
 
-    def _miss(self, checks: list[str], conf_l: float, conf_r: float, blind: bool) -> TrackedLane:
+    def _confirmed(self, left_m: np.ndarray, right_m: np.ndarray, pair: bool) -> bool:
+        """Count sightings of the same candidate lane (a gap of up to ``start_frames`` frames is
+        allowed between them); a pair needs two sightings, one line ``start_frames``."""
+        lim = self.cfg.max_offset_jump_m
+        prev = self.candidate
+        same = prev is not None and all(
+            abs(a[2] - b[2]) <= lim and abs(_x_at(a, self.lookahead_m) - _x_at(b, self.lookahead_m)) <= 3 * lim
+            for a, b in ((left_m, prev[0]), (right_m, prev[1])))
+        count = prev[2] + 1 if same else 1
+        self.candidate = (left_m.copy(), right_m.copy(), count, 0)
+        return count >= (2 if pair else self.cfg.start_frames)
+
+    def _miss(self, checks: list[str], conf_l: float, conf_r: float, blind: bool,
+              keep_candidate: bool = False) -> TrackedLane:
         self.misses += 1
         self.since_both += 1
         self.stats["rejected"] += 1
+        if not keep_candidate and self.candidate is not None:
+            lm, rm, count, age = self.candidate
+            self.candidate = (lm, rm, count, age + 1) if age < self.cfg.start_frames else None
         if self.left is None or self.right is None or self.misses > self.cfg.lost_after:
+            candidate, had_lane = self.candidate, self.left is not None or self.was_lost
             self.reset()
+            self.candidate, self.was_lost = candidate, had_lane
             self.misses = self.cfg.lost_after + 1
             self.stats["lost"] += 1
             return TrackedLane(None, None, False, False, False, False, conf_l, conf_r, LOST, self.misses, tuple(checks))
