@@ -122,13 +122,14 @@ class LaneTracker:
         """The car (x = 0) is inside the lane, at most ``max_offset_m`` from its centre."""
         return lm[2] < 0 < rm[2] and abs(lm[2] + rm[2]) / 2 <= self.cfg.max_offset_m
 
-    def _jump_ok(self, meas: np.ndarray, tracked: np.ndarray | None) -> bool:
-        if tracked is None or self.misses >= self.cfg.max_misses:
-            return True
+    def _close(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Two fits of one line within the jump limit: at the car, and three times it at the far end."""
         lim = self.cfg.max_offset_jump_m
-        near = abs(meas[2] - tracked[2])
-        far = abs(_x_at(meas, self.lookahead_m) - _x_at(tracked, self.lookahead_m))
-        return near <= lim and far <= 3 * lim
+        far = abs(_x_at(a, self.lookahead_m) - _x_at(b, self.lookahead_m))
+        return abs(a[2] - b[2]) <= lim and far <= 3 * lim
+
+    def _jump_ok(self, meas: np.ndarray, tracked: np.ndarray | None) -> bool:
+        return tracked is None or self.misses >= self.cfg.max_misses or self._close(meas, tracked)
 
     # -- update -------------------------------------------------------------------------
     def update(self, left: Measurement | None, right: Measurement | None, blind: bool) -> TrackedLane:
@@ -187,7 +188,7 @@ class LaneTracker:
         if self.left is None or self.right is None:
             strong = ok_l and ok_r and min(conf_l, conf_r) >= c.min_start_confidence
             if self.was_lost and not strong and not self._confirmed(meas_l, meas_r, ok_l and ok_r):
-                # A weak start must show the same lane on start_frames frames in a row.
+                # A weak start must be seen again in the same place before it is shown.
                 checks.append("confirming")
                 return self._miss(checks, conf_l, conf_r, blind, keep_candidate=True)
         self.candidate = None
@@ -241,11 +242,8 @@ class LaneTracker:
     def _confirmed(self, left_m: np.ndarray, right_m: np.ndarray, pair: bool) -> bool:
         """Count sightings of the same candidate lane (a gap of up to ``start_frames`` frames is
         allowed between them); a pair needs two sightings, one line ``start_frames``."""
-        lim = self.cfg.max_offset_jump_m
         prev = self.candidate
-        same = prev is not None and all(
-            abs(a[2] - b[2]) <= lim and abs(_x_at(a, self.lookahead_m) - _x_at(b, self.lookahead_m)) <= 3 * lim
-            for a, b in ((left_m, prev[0]), (right_m, prev[1])))
+        same = prev is not None and self._close(left_m, prev[0]) and self._close(right_m, prev[1])
         count = prev[2] + 1 if same else 1
         self.candidate = (left_m.copy(), right_m.copy(), count, 0)
         return count >= (2 if pair else self.cfg.start_frames)
