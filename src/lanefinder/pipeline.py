@@ -174,16 +174,16 @@ class LaneFinder:
                                      found.method + "+windows", again.histogram, again.bases_px, found.band_px)
                 fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
         meas_l, meas_r = self._measure(fit_l, scale), self._measure(fit_r, scale)
-        colour_checks: tuple[str, ...] = ()
+        frame_checks: tuple[str, ...] = ()  # checks made here, before the tracker's
         if view is not None and self.config.tracking.yellow_line_side != "either":
-            meas_l, meas_r, colour_checks = self._yellow_side(view, found, meas_l, meas_r)
+            meas_l, meas_r, frame_checks = self._yellow_side(view, found, meas_l, meas_r)
         if self._line_inside(pixels, meas_l, meas_r, scale, tracker):
             # A solid marking runs down the middle of the lane these lines would make: not our lane.
             meas_l = meas_r = None
-            colour_checks = (*colour_checks, "line-inside-lane")
+            frame_checks = (*frame_checks, "line-inside-lane")
         track = tracker.update(meas_l, meas_r, blind)
-        if colour_checks:
-            track = replace(track, checks=(*colour_checks, *track.checks))
+        if frame_checks:
+            track = replace(track, checks=(*frame_checks, *track.checks))
         return self._result(track, fit_l, fit_r, found, binary, scale)
 
     def _is_yellow(self, view: np.ndarray, line: LinePixels) -> bool:
