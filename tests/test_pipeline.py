@@ -160,3 +160,47 @@ def test_a_solid_marking_inside_the_lane_rejects_it_but_clutter_does_not(middle,
     r = finder.process_binary(_lane_binary(be.size, middle), be)
     assert r.lane_found is found, r.checks
     assert ("line-inside-lane" in r.checks) is (not found)
+
+
+def _slanted_lane_binary(finder: LaneFinder, heading_deg: float, width_m: float = 3.7) -> np.ndarray:
+    """Bird's-eye binary of a straight lane centred on the car, heading ``heading_deg`` to the right."""
+    be = finder.birdseye((1280, 720))
+    w, h = be.size
+    slope = float(np.tan(np.radians(heading_deg)))
+    half = width_m / 2 * np.hypot(1.0, slope)  # the lines' x at the car, for a width across the lane
+    d = np.linspace(0, h * be.ym_per_px, 400)
+    b = np.zeros((h, w), np.uint8)
+    for c in (-half, half):
+        x = be.car_x_px + (slope * d + c) / be.xm_per_px
+        y = h - d / be.ym_per_px
+        cv2.polylines(b, [np.column_stack([x, y]).round().astype(np.int32)], False, 1, 6)
+    return b
+
+
+def test_heading_search_finds_lines_that_cross_the_view_at_an_angle():
+    from lanefinder.search import heading_search
+
+    finder = LaneFinder(Config())
+    be = finder.birdseye((1280, 720))
+    binary = _slanted_lane_binary(finder, 15.0)
+    found = heading_search(binary, finder.search_px, be.car_x_px)
+    expected_shear = np.tan(np.radians(15.0)) * be.ym_per_px / be.xm_per_px
+    assert found.extra["shear_px"] == pytest.approx(expected_shear, rel=0.01)
+    # Nearly every set pixel of each line is collected, none of the other line's.
+    for line, side in ((found.left, -1), (found.right, 1)):
+        assert line.count > 0
+        assert np.all(np.sign(line.x - (be.car_x_px + (be.size[1] - line.y) * expected_shear)) == side)
+    assert found.left.count + found.right.count >= 0.9 * binary.sum()
+
+
+@pytest.mark.parametrize("heading_deg", [-15.0, 15.0, 20.0])
+def test_a_lane_crossing_the_view_at_an_angle_is_measured(heading_deg):
+    finder = LaneFinder(Config())
+    be = finder.birdseye((1280, 720))
+    r = finder.process_binary(_slanted_lane_binary(finder, heading_deg), be)
+    assert r.left_found and r.right_found, r.checks
+    slope = np.tan(np.radians(heading_deg))
+    for fit in (r.left_fit_m, r.right_fit_m):
+        assert fit[1] == pytest.approx(slope, abs=0.03)
+    assert r.width_m == pytest.approx(3.7, abs=0.15)
+    assert abs(r.offset_m) < 0.15

@@ -170,3 +170,20 @@ def test_a_guessed_line_comes_back_elsewhere_only_beside_an_anchored_line(tracke
     assert not t.right_found and "right-jump" in t.checks, "a lone line far from the track"
     t = tracker.update(meas(LEFT), meas(moved), blind=False)
     assert t.right_found and t.left_found, "beside the left line, where the track expects it"
+
+
+def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(tracker):
+    cfg = tracker.cfg
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    for _ in range(cfg.max_misses):
+        tracker.update(None, None, blind=False)
+    assert tracker.needs_blind_search
+    # 0.6 m away (beyond the jump limit), weak, alone: no jump limit holds while re-detecting,
+    # so it must not be taken.
+    far = LEFT + np.array([0, 0, -0.6])
+    t = tracker.update(meas(far, conf=cfg.min_start_confidence - 0.05), None, blind=True)
+    assert not t.left_found and "one-line-start" in t.checks
+    assert t.has_lane and t.left_m[2] == pytest.approx(LEFT[2])  # still the held lane
+    # A confident line alone does re-place the lane.
+    t = tracker.update(meas(far, conf=0.9), None, blind=True)
+    assert t.left_found and t.left_m[2] == pytest.approx(far[2])

@@ -121,6 +121,10 @@ class SearchConfig(_Section):
     lane_width_m: PositiveFloat = 3.7
     width_tolerance: Annotated[float, Field(gt=0, lt=1)] = 0.22
     marking_width_m: PositiveFloat = 0.15
+    # When the straight-ahead search finds weak lines, lines heading up to this many degrees off
+    # the car's axis are tried too, every ``heading_step_deg`` (0 turns that search off).
+    max_heading_deg: Annotated[float, Field(ge=0, lt=80)] = 25.0
+    heading_step_deg: Annotated[float, Field(ge=0, le=45)] = 5.0
 
 
 class FitConfig(_Section):

@@ -18,7 +18,16 @@ from .camera import CameraModel, load_camera
 from .config import Config
 from .errors import LaneFinderError
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, lane_geometry, m_to_px, px_to_m
-from .search import LinePixels, Pixels, SearchParams, SearchResult, blind_search, search_around, search_params
+from .search import (
+    LinePixels,
+    Pixels,
+    SearchParams,
+    SearchResult,
+    blind_search,
+    heading_search,
+    search_around,
+    search_params,
+)
 from .threshold import threshold
 from .tracking import LOST, LaneTracker, Measurement, TrackedLane
 
@@ -150,8 +159,8 @@ class LaneFinder:
         ``view`` is the bird's-eye colour image (BGR); with it, a yellow line is only taken as the
         side of the lane that ``tracking.yellow_line_side`` allows.
         """
-        tracker, sp, fp = self.tracker, self.search_px, self.fit_px
-        assert tracker is not None and sp is not None and fp is not None
+        tracker, sp = self.tracker, self.search_px
+        assert tracker is not None and sp is not None
         scale = self.scale(be)
         pixels = Pixels.of(binary)
         blind = tracker.needs_blind_search
@@ -160,19 +169,21 @@ class LaneFinder:
         else:
             found = search_around(binary, m_to_px(tracker.left, scale), m_to_px(tracker.right, scale),
                                   sp.around_margin_px, pixels)
-        height = be.size[1]
-        fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
+        fit_l, fit_r = self._fit(found)
         if not blind and (_weak(fit_l, self.config) or _weak(fit_r, self.config)):
             # A line went weak around the track: search blind in the same frame and keep, per
             # line, whichever search gives the more confident fit.
-            again = blind_search(binary, sp, be.car_x_px, pixels)
-            again_l, again_r = fit_lane((again.left.x, again.left.y), (again.right.x, again.right.y), height, fp)
-            use_l = _conf(again_l) > _conf(fit_l)
-            use_r = _conf(again_r) > _conf(fit_r)
-            if use_l or use_r:
-                found = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
-                                     found.method + "+windows", again.histogram, again.bases_px, found.band_px)
-                fit_l, fit_r = fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), height, fp)
+            found, fit_l, fit_r = self._keep_better(found, fit_l, fit_r, blind_search(binary, sp, be.car_x_px, pixels))
+        if sp.shears_px and (_weak(fit_l, self.config) or _weak(fit_r, self.config)):
+            # Still weak: look for lines that cross the view at an angle (the car heading off the
+            # lane).  Those come as a pair, taken only when neither line is weak and the pair is
+            # the more confident in all.
+            slant = heading_search(binary, sp, be.car_x_px, pixels)
+            slant_l, slant_r = self._fit(slant)
+            c_new = _conf(slant_l) + _conf(slant_r)
+            c_old = max(_conf(fit_l), 0.0) + max(_conf(fit_r), 0.0)
+            if not (_weak(slant_l, self.config) or _weak(slant_r, self.config)) and c_new > c_old:
+                found, fit_l, fit_r = slant, slant_l, slant_r
         meas_l, meas_r = self._measure(fit_l, scale), self._measure(fit_r, scale)
         frame_checks: tuple[str, ...] = ()  # checks made here, before the tracker's
         if view is not None and self.config.tracking.yellow_line_side != "either":
@@ -185,6 +196,26 @@ class LaneFinder:
         if frame_checks:
             track = replace(track, checks=(*frame_checks, *track.checks))
         return self._result(track, fit_l, fit_r, found, binary, scale)
+
+    def _fit(self, found: SearchResult) -> tuple[LineFit | None, LineFit | None]:
+        """Robust fits of a search's left and right line pixels."""
+        assert self.fit_px is not None and self._birdseye is not None
+        return fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), self._birdseye.size[1],
+                        self.fit_px)
+
+    def _keep_better(self, found: SearchResult, fit_l: LineFit | None, fit_r: LineFit | None,
+                     again: SearchResult) -> tuple[SearchResult, LineFit | None, LineFit | None]:
+        """Per line, the more confident of two searches' fits (and the search result to match)."""
+        again_l, again_r = self._fit(again)
+        use_l, use_r = _conf(again_l) > _conf(fit_l), _conf(again_r) > _conf(fit_r)
+        if not (use_l or use_r):
+            return found, fit_l, fit_r
+        if use_l and use_r:
+            return again, again_l, again_r
+        merged = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
+                              f"{found.method}+{again.method}", again.histogram, again.bases_px, found.band_px,
+                              {**found.extra, **again.extra})
+        return (merged, *self._fit(merged))
 
     def _is_yellow(self, view: np.ndarray, line: LinePixels) -> bool:
         """Most of the line's pixels are saturated yellow (paint, not dry grass or sunlit asphalt)."""

@@ -1,8 +1,10 @@
 """Finding the pixels of each lane line in the bird's-eye binary.
 
-Three searches, all over the same sorted list of set pixels:
+Four searches, all over the same sorted list of set pixels:
 - :func:`sliding_windows`: a histogram of the lower image, then windows stepping up;
 - :func:`segment_search`: a histogram per horizontal segment, implausible peaks rejected;
+- :func:`heading_search`: sliding windows for lines that cross the view at an angle (the car
+  heading off the lane, as in a hairpin): histograms taken along a set of slopes;
 - :func:`search_around`: a band around a previous fit (video tracking).
 """
 
@@ -32,11 +34,17 @@ class SearchParams:
     expected_width_px: float
     width_tolerance: float
     marking_px: float = 6.0
+    # Slopes tried by :func:`heading_search`: bird's-eye pixels right per pixel up.
+    shears_px: tuple[float, ...] = ()
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
     """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
     per_m = cfg.marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
+    n = int(cfg.max_heading_deg // cfg.heading_step_deg) if cfg.heading_step_deg > 0 else 0
+    angles = [k * cfg.heading_step_deg for k in range(-n, n + 1) if k != 0]
+    # A line heading at angle a moves tan(a) metres sideways per metre ahead.
+    shears = tuple(float(np.tan(np.radians(a)) * ym_per_px / xm_per_px) for a in angles)
     return SearchParams(
         method=cfg.method,
         n_windows=cfg.n_windows,
@@ -47,6 +55,7 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
         expected_width_px=cfg.lane_width_m / xm_per_px,
         width_tolerance=cfg.width_tolerance,
         marking_px=cfg.marking_width_m / xm_per_px,
+        shears_px=shears,
     )
 
 
@@ -126,10 +135,17 @@ def find_bases(hist: np.ndarray, car_x: float, expected_width_px: float, toleran
     lane width within ``tolerance``, the pair with the most support wins.  With no such
     pair, the strongest peak is kept alone on its side of the car.
     """
+    left, right, _ = _scored_bases(hist, car_x, expected_width_px, tolerance, min_count)
+    return left, right
+
+
+def _scored_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tolerance: float,
+                  min_count: float) -> tuple[float | None, float | None, float]:
+    """:func:`find_bases` and the support of its answer (a lone peak counts half)."""
     hs = _smooth(hist, 9)
     peaks = _local_maxima(hs, min_count)
     if peaks.size == 0:
-        return None, None
+        return None, None, 0.0
     lo_w, hi_w = expected_width_px * (1 - tolerance), expected_width_px * (1 + tolerance)
     # Pairs: every left candidate with every right candidate at a plausible spacing.
     li, ri = np.meshgrid(peaks, peaks, indexing="ij")
@@ -140,9 +156,10 @@ def find_bases(hist: np.ndarray, car_x: float, expected_width_px: float, toleran
         centre_penalty = np.abs((li + ri) / 2 - car_x) / expected_width_px
         score = np.where(valid, (hs[li] + hs[ri]) * (1 - 0.3 * centre_penalty), -np.inf)
         i, j = np.unravel_index(int(np.argmax(score)), score.shape)
-        return float(li[i, j]), float(ri[i, j])
+        return float(li[i, j]), float(ri[i, j]), float(score[i, j])
     best = int(peaks[0])
-    return (float(best), None) if best < car_x else (None, float(best))
+    side = (float(best), None) if best < car_x else (None, float(best))
+    return (*side, 0.5 * float(hs[best]))
 
 
 def base_histogram(binary: np.ndarray, fraction: float) -> np.ndarray:
@@ -166,13 +183,16 @@ def _take(px: Pixels, parts: list[np.ndarray]) -> LinePixels:
     return LinePixels(px.x[idx].astype(np.float32), px.y[idx].astype(np.float32))
 
 
-def _windows_for(px: Pixels, base: float | None, cfg: SearchParams) -> LinePixels:
+def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float = 0.0) -> LinePixels:
+    """Windows up from ``base`` (x at the bottom row), first heading ``shear`` px right per px up."""
     if base is None:
         return EMPTY
     h, w = px.shape
     win_h = h / cfg.n_windows
-    x_c, step = float(base), 0.0
+    step = shear * win_h
+    x_c = float(base) + step / 2
     last_x: float | None = None
+    seen = False
     parts: list[np.ndarray] = []
     windows: list[Window] = []
     for i in range(cfg.n_windows):
@@ -187,8 +207,12 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams) -> LinePixel
             parts.append(sel + sl.start)
             new_x = float(xs[sel].mean())
             # Follow a bend: the drift between consecutive found windows carries on upwards.
-            step = 0.5 * step + 0.5 * (new_x - last_x) if last_x is not None else 0.0
-            last_x = new_x
+            # Until two windows in a row have been found, the starting slope stands.
+            if last_x is not None:
+                step = 0.5 * step + 0.5 * (new_x - last_x)
+            elif seen:
+                step = 0.0
+            last_x, seen = new_x, True
             x_c = new_x + step
         else:
             last_x = None
@@ -267,6 +291,38 @@ def segment_search(binary: np.ndarray, cfg: SearchParams, car_x: float,
 def blind_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None = None) -> SearchResult:
     """The configured search that needs no previous fit (``cfg.method``: windows or segments)."""
     return _blind(binary, cfg, car_x, pixels, cfg.method)
+
+
+def sheared_histogram(px: Pixels, shear: float, fraction: float) -> np.ndarray:
+    """Column support at the bottom row for lines leaning ``shear`` px right per px up.
+
+    Each set pixel of the lower ``fraction`` is moved back along that lean to the bottom row;
+    a line at that lean piles up in one column (float32, one bin per column).
+    """
+    h, w = px.shape
+    sl = px.rows(int(h * (1 - fraction)), h)
+    x0 = np.rint(px.x[sl] - shear * (h - px.y[sl])).astype(np.intp)
+    return np.bincount(x0[(x0 >= 0) & (x0 < w)], minlength=w).astype(np.float32)
+
+
+def heading_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None = None) -> SearchResult:
+    """Sliding windows for lines that cross the view at an angle.
+
+    For each slope in ``cfg.shears_px`` the lower image is summed along that slope; the slope
+    whose histogram gives the best-supported pair of bases (see :func:`find_bases`) is followed
+    up with windows that start at that slope.  ``extra["shear_px"]`` holds the slope chosen.
+    """
+    px = pixels or Pixels.of(binary)
+    best: tuple[float, float, tuple[float | None, float | None], np.ndarray | None] = (0.0, 0.0, (None, None), None)
+    for shear in cfg.shears_px:
+        hist = sheared_histogram(px, shear, cfg.histogram_fraction)
+        left, right, score = _scored_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance,
+                                           cfg.min_pixels / 4)
+        if score > best[0]:
+            best = (score, shear, (left, right), hist)
+    _, shear, bases, hist = best
+    left, right = _windows_for(px, bases[0], cfg, shear), _windows_for(px, bases[1], cfg, shear)
+    return SearchResult(left, right, "heading", hist, bases, extra={"shear_px": shear})
 
 
 def _around(px: Pixels, fit: np.ndarray | None, margin: float) -> LinePixels:

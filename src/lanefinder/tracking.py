@@ -175,7 +175,9 @@ class LaneTracker:
 
         if ok_l != ok_r:
             one_conf = conf_l if ok_l else conf_r
-            if (self.left is None or self.right is None) and one_conf < c.min_start_confidence:
+            # Without a lane, or re-detecting after misses (when the jump limit no longer holds),
+            # a line alone must be confident to place the lane.
+            if self.needs_blind_search and one_conf < c.min_start_confidence:
                 checks.append("one-line-start")
                 return self._miss(checks, conf_l, conf_r, blind)
             if self.since_both >= c.max_one_line_frames:
