@@ -192,7 +192,6 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
     step = shear * win_h
     x_c = float(base) + step / 2
     last_x: float | None = None
-    seen = False
     parts: list[np.ndarray] = []
     windows: list[Window] = []
     for i in range(cfg.n_windows):
@@ -207,12 +206,13 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
             parts.append(sel + sl.start)
             new_x = float(xs[sel].mean())
             # Follow a bend: the drift between consecutive found windows carries on upwards.
-            # Until two windows in a row have been found, the starting slope stands.
+            # Until two windows in a row have been found, the starting slope stands; after a
+            # gap (a found window before this one, but not just below it), the drift restarts.
             if last_x is not None:
                 step = 0.5 * step + 0.5 * (new_x - last_x)
-            elif seen:
+            elif len(parts) > 1:
                 step = 0.0
-            last_x, seen = new_x, True
+            last_x = new_x
             x_c = new_x + step
         else:
             last_x = None
