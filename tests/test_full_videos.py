@@ -6,6 +6,7 @@ Figures are produced by scripts/check_videos.py, which these tests share their s
 from __future__ import annotations
 
 import sys
+from itertools import pairwise
 from pathlib import Path
 
 from lanefinder.telemetry import read_telemetry
@@ -27,12 +28,12 @@ def _run(name: str, tmp: Path) -> dict:
 def test_project_video_bars(tmp_path):
     st = _run("project_video", tmp_path)
     assert st["frames"] == 1260
-    # Both lines drawn on every frame, never lost; both measured (not held from the track) on all
-    # but at most 2 frames (measured: 1259 of 1260, one right line rejected by the width check).
+    # Both lines drawn on every frame, never lost, and both measured (not held from the track) on
+    # every frame (at 22.4 s a bump stretches the lane to 4.66 m for one frame; it is measured).
     assert all(r["state"] != "lost" and r["left_x"][-5] >= 0 and r["right_x"][-5] >= 0 for r in st["rows"])
-    assert sum(r["left_found"] and r["right_found"] for r in st["rows"]) >= 1258
-    assert st["width_std_m"] < 0.15  # measured 0.097 m
-    assert st["max_offset_jump_m"] < 0.15  # measured 0.129 m, at the one frame whose right line is held
+    assert all(r["left_found"] and r["right_found"] for r in st["rows"])
+    assert st["width_std_m"] < 0.15  # measured 0.141 m
+    assert st["max_offset_jump_m"] < 0.15  # measured 0.073 m
     # The first (left) curve, 0-10 s: Udacity puts its radius at about 1 km.
     first = [r["radius_m"] for r in st["rows"] if r["time_s"] < 10]
     first.sort()
@@ -46,3 +47,16 @@ def test_challenge_video_holds_the_lane(tmp_path):
     assert st["frames"] == 484  # the file holds 485; the last one does not decode
     assert st["lost_pct"] == 0
     assert st["both_seen_pct"] > 94  # measured: see the closing note; the bar is 98%
+
+
+def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):
+    st = _run("harder_challenge_video", tmp_path)
+    assert st["frames"] == 1199
+    assert st["lost_pct"] <= 10  # measured 8.6% (103 frames), most of it in the hairpin at 40-43.6 s
+    # While tracking, the lane does not leap; only a re-detection after misses may move it (measured:
+    # once, by 0.68 m at 27.52 s, when the lane is found again after eight frames held in glare).
+    rows = st["rows"]
+    leaps = [b for a, b in pairwise(rows)
+             if a["state"] != "lost" and b["state"] != "lost" and abs(b["offset_m"] - a["offset_m"]) > 0.45]
+    assert all(r["state"] == "re-detect" for r in leaps), [(r["time_s"], r["state"]) for r in leaps]
+    assert len(leaps) <= 2

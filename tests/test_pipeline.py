@@ -204,3 +204,35 @@ def test_a_lane_crossing_the_view_at_an_angle_is_measured(heading_deg):
         assert fit[1] == pytest.approx(slope, abs=0.03)
     assert r.width_m == pytest.approx(3.7, abs=0.15)
     assert abs(r.offset_m) < 0.15
+
+
+def _streaks(binary: np.ndarray, n: int, seed: int) -> np.ndarray:
+    """``binary`` with ``n`` short, nearly upright streaks scattered over it (tree shadows in a hairpin)."""
+    out = binary.copy()
+    rng = np.random.default_rng(seed)
+    h, w = out.shape
+    for _ in range(n):
+        x, y = int(rng.integers(0, w)), int(rng.integers(0, h - 40))
+        cv2.line(out, (x, y), (x + int(rng.integers(-15, 15)), y + int(rng.integers(20, 50))), 1, 5)
+    return out
+
+
+def test_the_angled_search_keeps_clutter_beside_a_slanted_line_out_of_its_fit():
+    """Each window of the angled search keeps a band around its ridge (``search.heading_band_m``):
+    through scattered streaks, a lane at 20 degrees is measured far more often than with every
+    pixel of the windows kept (14 and 2 of 20 when written), and never wrongly."""
+    results = {}
+    for band_m in (0.0, 0.3):
+        finder = LaneFinder(Config.model_validate({"search": {"heading_band_m": band_m}}))
+        be = finder.birdseye((1280, 720))
+        lane = _slanted_lane_binary(finder, 20.0)
+        right = wrong = 0
+        for seed in range(20):
+            finder.reset()
+            r = finder.process_binary(_streaks(lane, 60, seed), be)
+            if r.lane_found:
+                ok = abs(r.width_m - 3.7) < 0.2 and abs(r.offset_m) < 0.2
+                right, wrong = right + ok, wrong + (not ok)
+        results[band_m] = (right, wrong)
+    assert results[0.3][0] >= 11 and results[0.0][0] <= 5, results
+    assert results[0.3][1] == 0 and results[0.0][1] == 0, results

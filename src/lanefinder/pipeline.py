@@ -177,12 +177,17 @@ class LaneFinder:
         if sp.shears_px and (_weak(fit_l, self.config) or _weak(fit_r, self.config)):
             # Still weak: look for lines that cross the view at an angle (the car heading off the
             # lane).  Those come as a pair, taken only when neither line is weak and the pair is
-            # the more confident in all.
+            # the more confident in all; without a track to hold it to (start, re-detection), the
+            # pair must also pass the lane checks.  While tracking, the tracker judges it.
             slant = heading_search(binary, sp, be.car_x_px, pixels)
             slant_l, slant_r = self._fit(slant)
             c_new = _conf(slant_l) + _conf(slant_r)
             c_old = max(_conf(fit_l), 0.0) + max(_conf(fit_r), 0.0)
-            if not (_weak(slant_l, self.config) or _weak(slant_r, self.config)) and c_new > c_old:
+            take = not (_weak(slant_l, self.config) or _weak(slant_r, self.config)) and c_new > c_old
+            if take and blind:
+                assert slant_l is not None and slant_r is not None
+                take = not tracker.pair_problems(px_to_m(slant_l.coeffs_px, scale), px_to_m(slant_r.coeffs_px, scale))
+            if take:
                 found, fit_l, fit_r = slant, slant_l, slant_r
         meas_l, meas_r = self._measure(fit_l, scale), self._measure(fit_r, scale)
         frame_checks: tuple[str, ...] = ()  # checks made here, before the tracker's

@@ -36,6 +36,8 @@ class SearchParams:
     marking_px: float = 6.0
     # Slopes tried by :func:`heading_search`: bird's-eye pixels right per pixel up.
     shears_px: tuple[float, ...] = ()
+    # Half-width of the band around each window's ridge that :func:`heading_search` keeps.
+    heading_band_px: float = 0.0
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
@@ -56,6 +58,7 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
         width_tolerance=cfg.width_tolerance,
         marking_px=cfg.marking_width_m / xm_per_px,
         shears_px=shears,
+        heading_band_px=cfg.heading_band_m / xm_per_px,
     )
 
 
@@ -183,8 +186,28 @@ def _take(px: Pixels, parts: list[np.ndarray]) -> LinePixels:
     return LinePixels(px.x[idx].astype(np.float32), px.y[idx].astype(np.float32))
 
 
-def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float = 0.0) -> LinePixels:
-    """Windows up from ``base`` (x at the bottom row), first heading ``shear`` px right per px up."""
+def _ridge(xs: np.ndarray, ys: np.ndarray, sel: np.ndarray, x_c: float, lean: float, y_mid: float,
+           margin: float, band: float) -> np.ndarray:
+    """Of the window's pixels ``sel``, those within ``band`` px of its strongest ridge along ``lean``.
+
+    Pixels are moved along the lean (px right per px up) to the window's middle row and
+    counted per column; the peak column is the ridge.
+    """
+    u = xs[sel] + lean * (ys[sel] - y_mid) - (x_c - margin)
+    n_bins = int(2 * margin) + 1
+    inside = (u >= 0) & (u < n_bins)
+    counts = np.bincount(u[inside].astype(np.intp), minlength=n_bins)
+    counts = _smooth(counts.astype(np.float32), max(1, round(band)))
+    peak = float(np.argmax(counts))
+    return sel[np.abs(u - peak) <= band]
+
+
+def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float = 0.0,
+                 band_px: float = 0.0) -> LinePixels:
+    """Windows up from ``base`` (x at the bottom row), first heading ``shear`` px right per px up.
+
+    With ``band_px``, a window keeps only its pixels within that distance of its strongest ridge.
+    """
     if base is None:
         return EMPTY
     h, w = px.shape
@@ -200,6 +223,8 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
         sl = px.rows(y_lo, y_hi)
         xs = px.x[sl]
         sel = np.flatnonzero(np.abs(xs - x_c) < cfg.margin_px)
+        if band_px > 0 and sel.size >= cfg.min_pixels:
+            sel = _ridge(xs, px.y[sl], sel, x_c, step / win_h, (y_lo + y_hi) / 2, cfg.margin_px, band_px)
         found = sel.size >= cfg.min_pixels
         windows.append((int(x_c - cfg.margin_px), y_lo, int(x_c + cfg.margin_px), y_hi, bool(found)))
         if found:
@@ -310,7 +335,8 @@ def heading_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: 
 
     For each slope in ``cfg.shears_px`` the lower image is summed along that slope; the slope
     whose histogram gives the best-supported pair of bases (see :func:`find_bases`) is followed
-    up with windows that start at that slope.  ``extra["shear_px"]`` holds the slope chosen.
+    up with windows that start at that slope; each window keeps only its pixels within
+    ``cfg.heading_band_px`` of its strongest ridge.  ``extra["shear_px"]`` holds the slope chosen.
     """
     px = pixels or Pixels.of(binary)
     best: tuple[float, float, tuple[float | None, float | None], np.ndarray | None] = (0.0, 0.0, (None, None), None)
@@ -321,7 +347,8 @@ def heading_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: 
         if score > best[0]:
             best = (score, shear, (left, right), hist)
     _, shear, bases, hist = best
-    left, right = _windows_for(px, bases[0], cfg, shear), _windows_for(px, bases[1], cfg, shear)
+    band = cfg.heading_band_px
+    left, right = _windows_for(px, bases[0], cfg, shear, band), _windows_for(px, bases[1], cfg, shear, band)
     return SearchResult(left, right, "heading", hist, bases, extra={"shear_px": shear})
 
 

@@ -98,7 +98,9 @@ class LaneTracker:
         self.candidate = None
 
     # -- checks -------------------------------------------------------------------------
-    def _pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
+    def pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
+        """The lane checks a measured pair (metre fits) fails: width, the car inside the lane,
+        parallel lines, matching curvatures and, while tracking, the change of width."""
         c = self.cfg
         problems = []
         w_near = rm[2] - lm[2]
@@ -156,7 +158,7 @@ class LaneTracker:
         conf_l = left.confidence if left is not None else 0.0
         conf_r = right.confidence if right is not None else 0.0
         if ok_l and ok_r:
-            problems = self._pair_problems(left.coeffs_m, right.coeffs_m)
+            problems = self.pair_problems(left.coeffs_m, right.coeffs_m)
             if problems:
                 checks.extend(problems)
                 # Keep the line that agrees better with the track, else the more confident one.
