@@ -18,9 +18,9 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 @pytest.fixture(scope="session")
 def udacity_camera():
-    from lanefinder.pipeline import _udacity_camera
+    from lanefinder.camera import udacity_camera
 
-    return _udacity_camera()
+    return udacity_camera()
 
 
 @pytest.fixture(scope="session")

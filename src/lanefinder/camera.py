@@ -11,6 +11,8 @@ import json
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
 from pathlib import Path
 
 import cv2
@@ -268,3 +270,23 @@ def distort_points(camera: CameraModel, points: np.ndarray) -> np.ndarray:
     rays = np.column_stack([(pts[:, 0] - k[0, 2]) / k[0, 0], (pts[:, 1] - k[1, 2]) / k[1, 1], np.ones(len(pts))])
     out, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), k, camera.dist_coeffs)
     return out.reshape(-1, 2)
+
+
+@cache
+def udacity_camera() -> CameraModel:
+    """The built-in camera: the calibration of the Udacity chessboard photos.
+
+    Returns
+    -------
+    CameraModel
+        K and distortion of the Udacity dashcam at 1280x720 (RMS 0.996 px).
+
+    Examples
+    --------
+    >>> cam = udacity_camera()
+    >>> cam.image_size
+    (1280, 720)
+    """
+    path = resources.files("lanefinder") / "data" / "udacity_camera.json"
+    with resources.as_file(path) as p:
+        return load_camera(p)

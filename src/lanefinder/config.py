@@ -21,6 +21,38 @@ PositiveFloat = Annotated[float, Field(gt=0)]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 Byte = Annotated[int, Field(ge=0, le=255)]
 
+#: Lane width the default set-up is scaled by: 3.7 m between line centres (12 ft lanes).
+LANE_WIDTH_M = 3.7
+#: Size of the default bird's-eye view, (width, height) pixels.
+VIEW_SIZE_PX = (400, 300)
+#: Pixels the lane spans across the default bird's-eye view, centred in it.
+LANE_SPAN_PX = 150.0
+
+
+def default_dst(size: tuple[int, int] = VIEW_SIZE_PX, lane_px: float = LANE_SPAN_PX) -> tuple[Point, Point, Point, Point]:
+    """The bird's-eye rectangle of a lane ``lane_px`` wide, centred in a view of ``size``.
+
+    Parameters
+    ----------
+    size : tuple of int
+        The view's (width, height), pixels.
+    lane_px : float
+        Lane width across the view, pixels.
+
+    Returns
+    -------
+    tuple of (float, float)
+        Top-left, top-right, bottom-right and bottom-left corners, view pixels.
+
+    Examples
+    --------
+    >>> default_dst()
+    ((125.0, 0.0), (275.0, 0.0), (275.0, 300.0), (125.0, 300.0))
+    """
+    x0 = (size[0] - lane_px) / 2
+    w, h = x0 + lane_px, float(size[1])
+    return ((x0, 0.0), (w, 0.0), (w, h), (x0, h))
+
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -40,9 +72,9 @@ class BirdseyeConfig(_Section):
 
     reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
     src: tuple[Point, Point, Point, Point] = ((581.3, 460.0), (702.9, 460.0), (1034.0, 675.0), (280.5, 675.0))
-    size: tuple[PositiveInt, PositiveInt] = (400, 300)
-    dst: tuple[Point, Point, Point, Point] = ((125.0, 0.0), (275.0, 0.0), (275.0, 300.0), (125.0, 300.0))
-    xm_per_px: PositiveFloat = 3.7 / 150
+    size: tuple[PositiveInt, PositiveInt] = VIEW_SIZE_PX
+    dst: tuple[Point, Point, Point, Point] = default_dst()
+    xm_per_px: PositiveFloat = LANE_WIDTH_M / LANE_SPAN_PX
     ym_per_px: PositiveFloat = 0.09853
 
     @model_validator(mode="after")
@@ -118,7 +150,7 @@ class SearchConfig(_Section):
     min_window_marking_m: PositiveFloat = 0.2
     histogram_fraction: Annotated[float, Field(gt=0, le=1)] = 0.5
     around_margin_m: PositiveFloat = 0.45
-    lane_width_m: PositiveFloat = 3.7
+    lane_width_m: PositiveFloat = LANE_WIDTH_M
     width_tolerance: Annotated[float, Field(gt=0, lt=1)] = 0.22
     marking_width_m: PositiveFloat = 0.15
     # When the straight-ahead search finds weak lines, lines heading up to this many degrees off

@@ -8,13 +8,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import cache
-from importlib import resources
 
 import numpy as np
 
 from .birdseye import BirdsEye, make_birdseye
-from .camera import CameraModel, load_camera
+from .camera import CameraModel, load_camera, udacity_camera
 from .config import Config
 from .errors import LaneFinderError
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, lane_geometry, m_to_px, px_to_m
@@ -77,18 +75,11 @@ def _weak(fit: LineFit | None, cfg: Config) -> bool:
     return fit is None or fit.confidence < cfg.tracking.min_confidence
 
 
-@cache
-def _udacity_camera() -> CameraModel:
-    path = resources.files("lanefinder") / "data" / "udacity_camera.json"
-    with resources.as_file(path) as p:
-        return load_camera(p)
-
-
 def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -> CameraModel:
     """The configured camera: built-in Udacity, none (ideal pinhole), or a camera file."""
     name = cfg.camera.model
     if name == "udacity":
-        return _udacity_camera()
+        return udacity_camera()
     if name == "none":
         size = frame_size or cfg.birdseye.reference_size
         return CameraModel.ideal(size)

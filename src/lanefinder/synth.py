@@ -326,7 +326,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
                    progress: bool = False) -> Path:
     """Write video.mp4, gt.jsonl, camera.json and config.toml (the exact set-up) to ``out_dir``."""
     from .config import config_from_dict, dump_config
-    from .pipeline import _udacity_camera
+    from .camera import udacity_camera
     from .video import VideoInfo, VideoSink
 
     if isinstance(scenario, str):
@@ -337,7 +337,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         raise LaneFinderError("--frames must be at least 1")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cam = camera or _udacity_camera()
+    cam = camera or udacity_camera()
     renderer = Renderer(cam, mount or Mount(), scenario, seed)
     w, h = cam.image_size
     info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
