@@ -15,51 +15,12 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
+from lanefinder.stats import video_stats
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
 VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
 DEFAULT_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "udacity" / "videos"
-
-
-def curves(rows: list[dict], min_s: float = 2.0, straight_m: float = 3000.0) -> list[dict]:
-    """Stretches of at least ``min_s`` seconds bending one way with radius below ``straight_m``."""
-    out, cur = [], None
-    for r in rows:
-        k, rad = r.get("curvature_per_m"), r.get("radius_m")
-        side = None if k is None or rad is None or rad >= straight_m else ("right" if k > 0 else "left")
-        if cur and side == cur["side"]:
-            cur["rows"].append(r)
-            continue
-        if cur and cur["rows"][-1]["time_s"] - cur["rows"][0]["time_s"] >= min_s:
-            out.append(cur)
-        cur = {"side": side, "rows": [r]} if side else None
-    if cur and cur["rows"][-1]["time_s"] - cur["rows"][0]["time_s"] >= min_s:
-        out.append(cur)
-    return [{"side": c["side"], "from_s": c["rows"][0]["time_s"], "to_s": c["rows"][-1]["time_s"],
-             "median_radius_m": float(np.median([r["radius_m"] for r in c["rows"]]))} for c in out]
-
-
-def video_stats(rows: list[dict]) -> dict:
-    n = len(rows)
-    shown = sum(1 for r in rows if r["state"] != "lost")
-    seen_both = sum(1 for r in rows if r["left_found"] and r["right_found"])
-    lost = sum(1 for r in rows if r["state"] == "lost")
-    width = np.array([r["width_m"] for r in rows if r.get("width_m") is not None])
-    off = np.array([np.nan if r.get("offset_m") is None else r["offset_m"] for r in rows])
-    jumps = np.abs(np.diff(off))
-    return {
-        "frames": n,
-        "tracked_pct": 100.0 * shown / n if n else 0.0,
-        "both_seen_pct": 100.0 * seen_both / n if n else 0.0,
-        "lost_pct": 100.0 * lost / n if n else 0.0,
-        "width_mean_m": float(width.mean()) if width.size else float("nan"),
-        "width_std_m": float(width.std()) if width.size else float("nan"),
-        "max_offset_jump_m": float(np.nanmax(jumps)) if np.isfinite(jumps).any() else float("nan"),
-        "curves": curves(rows),
-    }
 
 
 def main() -> int:

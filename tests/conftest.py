@@ -1,6 +1,5 @@
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import cv2
@@ -13,7 +12,6 @@ CAL = DATA / "camera_cal"
 TEST_IMAGES = DATA / "test_images"
 CLIPS = DATA / "clips"
 SHARED_VIDEOS = ROOT.parent / "shared" / "data" / "udacity" / "videos"
-sys.path.insert(0, str(ROOT / "scripts"))
 
 
 @pytest.fixture(scope="session")

@@ -20,7 +20,7 @@ def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 
 
 def assert_one_line_error(p: subprocess.CompletedProcess, *needles: str) -> None:
-    assert p.returncode != 0
+    assert p.returncode == 2, (p.returncode, p.stderr)
     assert "Traceback" not in p.stderr
     err = p.stderr.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("lanefinder: error:"), p.stderr
@@ -66,10 +66,20 @@ def test_missing_image(tmp_path):
 def test_unreadable_image(tmp_path):
     bad = tmp_path / "bad.jpg"
     bad.write_text("not a picture")
-    p = run("image", str(bad), "-o", str(tmp_path / "out"))
-    assert p.returncode != 0 and "Traceback" not in p.stderr
-    assert "cannot read image" in p.stderr
+    assert_one_line_error(run("image", str(bad), "-o", str(tmp_path / "out")), "cannot read image")
     assert not (tmp_path / "out" / "bad.jpg").exists()
+
+
+def test_images_with_the_same_name_in_two_folders_do_not_overwrite_each_other(tmp_path):
+    for d in ("a", "b"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "x.jpg").write_bytes((TEST_IMAGES / "test3.jpg").read_bytes())
+    p = run("image", str(tmp_path / "a" / "x.jpg"), str(tmp_path / "b" / "x.jpg"), "-o", str(tmp_path / "out"))
+    assert p.returncode == 0, p.stderr
+    assert "x_2.jpg" in p.stdout
+    rows = [json.loads(x) for x in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+    assert [Path(r["output"]).name for r in rows] == ["x.jpg", "x_2.jpg"]
+    assert len(rows[0]["left_x"]) == len(rows[0]["h_samples"]) == 32 and rows[0]["left_range_m"] > 20
 
 
 def test_folder_with_no_images(tmp_path):

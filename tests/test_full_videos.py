@@ -5,17 +5,14 @@ Figures are produced by scripts/check_videos.py, which these tests share their s
 
 from __future__ import annotations
 
-import sys
 from itertools import pairwise
 from pathlib import Path
 
+from lanefinder.stats import video_stats
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
-from conftest import ROOT, shared_video
-
-sys.path.insert(0, str(ROOT / "scripts"))
-from check_videos import video_stats
+from conftest import shared_video
 
 
 def _run(name: str, tmp: Path) -> dict:

@@ -30,10 +30,10 @@ def results(test_images):
 def test_both_lines_found_on_all_8_test_images(results):
     assert len(results) == 8
     for name, r in results.items():
-        assert r.left_found and r.right_found, name
+        assert r.left.found and r.right.found, name
         assert WIDTH_BOUNDS_M[0] <= r.width_m <= WIDTH_BOUNDS_M[1], (name, r.width_m)
         assert OFFSET_BOUNDS_M[0] <= r.offset_m <= OFFSET_BOUNDS_M[1], (name, r.offset_m)
-        assert r.left_conf > 0.4 and r.right_conf > 0.4
+        assert r.left.confidence > 0.4 and r.right.confidence > 0.4
 
 
 def test_straight_images_report_a_large_radius(results):
@@ -89,7 +89,7 @@ def test_radius_is_never_negative_nan_or_inf():
 
 def test_a_black_frame_is_no_lane_not_a_crash():
     r = LaneFinder(Config()).process(np.zeros((720, 1280, 3), np.uint8))
-    assert not r.lane_found and not r.left_found and not r.right_found
+    assert not r.lane_found and not r.left.found and not r.right.found
     assert r.state == "lost"
 
 
@@ -103,7 +103,7 @@ def test_processing_a_640x360_frame(test_images):
 
     small = cv2.resize(test_images["test3"], (640, 360), interpolation=cv2.INTER_AREA)
     r = LaneFinder(Config()).process(small)
-    assert r.left_found and r.right_found
+    assert r.left.found and r.right.found
     assert 3.45 < r.width_m < 4.0
 
 
@@ -116,7 +116,7 @@ def test_segment_search_finds_the_lines_too(test_images):
         finder.reset()
         r = finder.process(img)
         assert r.lane_found
-        both += r.left_found and r.right_found
+        both += r.left.found and r.right.found
     # test1's right line has dashes only far up; the segment search leaves it inferred.
     assert both >= 7
 
@@ -130,10 +130,10 @@ def test_a_yellow_line_is_never_the_right_line_of_the_lane(test_images):
     img = _flipped(test_images["straight_lines1"])
     r = LaneFinder(Config()).process(img)  # yellow_line_side = "left" (right-hand traffic)
     assert "right-is-yellow" in r.checks
-    assert r.lane_found and r.left_found and not r.right_found and r.right_inferred
+    assert r.lane_found and r.left.found and not r.right.found and r.right.inferred
     mirrored = Config.model_validate({"tracking": {"yellow_line_side": "right"}})
     r = LaneFinder(mirrored).process(img)  # left-hand traffic: yellow on the right is fine
-    assert r.left_found and r.right_found and not r.checks
+    assert r.left.found and r.right.found and not r.checks
     assert 3.45 <= r.width_m <= 4.2
 
 
@@ -183,7 +183,7 @@ def test_heading_search_finds_lines_that_cross_the_view_at_an_angle():
     finder = LaneFinder(Config())
     be = finder.birdseye((1280, 720))
     binary = _slanted_lane_binary(finder, 15.0)
-    found = heading_search(binary, finder.search_px, be.car_x_px)
+    found = heading_search(binary, finder.measurer.search, be.car_x_px)
     expected_shear = np.tan(np.radians(15.0)) * be.ym_per_px / be.xm_per_px
     assert found.extra["shear_px"] == pytest.approx(expected_shear, rel=0.01)
     # Nearly every set pixel of each line is collected, none of the other line's.
@@ -198,9 +198,9 @@ def test_a_lane_crossing_the_view_at_an_angle_is_measured(heading_deg):
     finder = LaneFinder(Config())
     be = finder.birdseye((1280, 720))
     r = finder.process_binary(_slanted_lane_binary(finder, heading_deg), be)
-    assert r.left_found and r.right_found, r.checks
+    assert r.left.found and r.right.found, r.checks
     slope = np.tan(np.radians(heading_deg))
-    for fit in (r.left_fit_m, r.right_fit_m):
+    for fit in (r.left.fit_m, r.right.fit_m):
         assert fit[1] == pytest.approx(slope, abs=0.03)
     assert r.width_m == pytest.approx(3.7, abs=0.15)
     assert abs(r.offset_m) < 0.15

@@ -1,4 +1,4 @@
-"""Tracking logic on synthetic sequences of metre fits."""
+"""Tracking logic on synthetic sequences of metre fits, through the pure transition ``step``."""
 
 from __future__ import annotations
 
@@ -6,40 +6,62 @@ import numpy as np
 import pytest
 
 from lanefinder.config import TrackingConfig
-from lanefinder.tracking import LOST, REDETECT, TRACKING, LaneTracker, Measurement
+from lanefinder.geometry import Scale
+from lanefinder.lane import LOST, REDETECT, TRACKING, Line
+from lanefinder.tracking import Rules, Track, Verdict, implied_lane, step
 
 LEFT = np.array([2e-4, 0.01, -1.8])
 RIGHT = np.array([2e-4, 0.01, 1.9])
+RULES = Rules(TrackingConfig(), lookahead_m=29.6, default_width_m=3.7, scale=Scale(3.7 / 150, 0.0987, 300, 200.0))
 
 
-def meas(c: np.ndarray, conf: float = 0.9) -> Measurement:
-    return Measurement(np.asarray(c, float), conf)
+def meas(c, conf: float = 0.9) -> Line:
+    return Line(fit_px=None, fit_m=np.asarray(c, float), confidence=conf, found=True, inferred=False)
+
+
+class Tracker:
+    """Threads the track through ``step`` frame by frame, as the pipeline does."""
+
+    def __init__(self) -> None:
+        self.cfg = RULES.cfg
+        self.track = Track()
+
+    def update(self, left: Line | None, right: Line | None, blind: bool) -> Verdict:
+        self.track, verdict = step(self.track, (left, right), blind, RULES)
+        return verdict
+
+    @property
+    def needs_blind_search(self) -> bool:
+        return self.track.needs_blind_search(self.cfg)
+
+    def reset(self) -> None:
+        self.track = Track()
 
 
 @pytest.fixture
-def tracker() -> LaneTracker:
-    return LaneTracker(TrackingConfig(), lookahead_m=29.6)
+def tracker() -> Tracker:
+    return Tracker()
 
 
 def test_steady_lane_is_tracked(tracker):
     first = tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    assert first.state == REDETECT and first.left_found and first.right_found
+    assert first.state == REDETECT and first.left.found and first.right.found
     assert not tracker.needs_blind_search
     for _ in range(10):
         t = tracker.update(meas(LEFT), meas(RIGHT), blind=False)
     assert t.state == TRACKING and t.misses == 0
-    np.testing.assert_allclose(t.left_m, LEFT, atol=1e-9)
+    np.testing.assert_allclose(t.left.fit_m, LEFT, atol=1e-9)
 
 
 def test_an_outlier_frame_is_rejected_and_the_lane_held(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     bad_left = LEFT + np.array([0, 0, 1.2])  # a 1.2 m jump of the left line, lane width 2.5 m
     t = tracker.update(meas(bad_left), meas(RIGHT), blind=False)
-    assert not t.left_found and t.right_found
-    assert "left-jump" in t.checks
+    assert not t.left.found and t.right.found
+    assert "left-jump" in t.reasons
     # The left line is inferred from the right one and the tracked width, not from the outlier.
-    assert t.left_inferred
-    assert t.left_m[2] == pytest.approx(-1.8, abs=0.05)
+    assert t.left.inferred
+    assert t.left.fit_m[2] == pytest.approx(-1.8, abs=0.05)
 
 
 def test_after_n_misses_the_lane_is_found_again_blind(tracker):
@@ -53,17 +75,17 @@ def test_after_n_misses_the_lane_is_found_again_blind(tracker):
     # track is stale.
     shifted_l, shifted_r = LEFT + np.array([0, 0, 0.7]), RIGHT + np.array([0, 0, 0.7])
     t = tracker.update(meas(shifted_l), meas(shifted_r), blind=True)
-    assert t.state == REDETECT and t.left_found and t.right_found
-    assert t.left_m[2] == pytest.approx(-1.1)
+    assert t.state == REDETECT and t.left.found and t.right.found
+    assert t.left.fit_m[2] == pytest.approx(-1.1)
 
 
 def test_one_line_lost_is_inferred_from_the_other_and_the_width(tracker):
     for _ in range(5):
         tracker.update(meas(LEFT), meas(RIGHT), blind=False)
     t = tracker.update(meas(LEFT), None, blind=False)
-    assert t.left_found and not t.right_found and t.right_inferred
-    assert t.right_m[2] - t.left_m[2] == pytest.approx(3.7, abs=0.05)
-    np.testing.assert_allclose(t.right_m[:2], LEFT[:2], atol=1e-6)
+    assert t.left.found and not t.right.found and t.right.inferred
+    assert t.right.fit_m[2] - t.left.fit_m[2] == pytest.approx(3.7, abs=0.05)
+    np.testing.assert_allclose(t.right.fit_m[:2], LEFT[:2], atol=1e-6)
 
 
 def test_nothing_for_long_says_lost(tracker):
@@ -76,34 +98,34 @@ def test_nothing_for_long_says_lost(tracker):
 def test_implausible_pairs_are_rejected(tracker):
     # Too narrow: 1.5 m.
     t = tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 1.5])), blind=True)
-    assert "width" in t.checks and not (t.left_found and t.right_found)
+    assert "width" in t.reasons and not (t.left.found and t.right.found)
     tracker.reset()
     # Not parallel: the right line swings 2 m out at 30 m.
     t = tracker.update(meas(LEFT), meas(RIGHT + np.array([0.0025, 0, 0])), blind=True)
-    assert {"parallel", "curvature"} & set(t.checks)
+    assert {"parallel", "curvature"} & set(t.reasons)
 
 
 def test_low_confidence_lines_are_not_used(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     t = tracker.update(meas(LEFT, 0.1), meas(RIGHT, 0.9), blind=False)
-    assert not t.left_found and t.right_found and "left-confidence" in t.checks
+    assert not t.left.found and t.right.found and "left-confidence" in t.reasons
 
 
 def test_a_lane_is_started_from_one_line_only_when_it_is_confident(tracker):
     t = tracker.update(meas(LEFT, 0.4), None, blind=True)
-    assert t.state == LOST and "one-line-start" in t.checks
+    assert t.state == LOST and "one-line-start" in t.reasons
     t = tracker.update(meas(LEFT, 0.9), None, blind=True)
-    assert t.state == REDETECT and t.left_found and t.right_inferred
+    assert t.state == REDETECT and t.left.found and t.right.inferred
     # The other line is 3.7 m away across the lane (normal to it), a little more in x.
-    assert t.right_m[2] - t.left_m[2] == pytest.approx(3.7 * np.hypot(1.0, LEFT[1]))
+    assert t.right.fit_m[2] - t.left.fit_m[2] == pytest.approx(3.7 * np.hypot(1.0, LEFT[1]))
 
 
 def test_one_line_alone_holds_the_lane_only_so_long(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     n = tracker.cfg.max_one_line_frames
     states = [tracker.update(meas(LEFT), None, blind=tracker.needs_blind_search) for _ in range(n + 20)]
-    assert all(s.left_found and s.right_inferred for s in states[:n])
-    assert "one-line-too-long" in states[n].checks
+    assert all(s.left.found and s.right.inferred for s in states[:n])
+    assert "one-line-too-long" in states[n].reasons
     # Held for lost_after more frames, then "lost" (until a confident start).
     assert states[n + tracker.cfg.lost_after].state == LOST
 
@@ -112,27 +134,27 @@ def test_smoothing_damps_wobble_but_follows_a_bend(tracker):
     rng = np.random.default_rng(0)
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     # Wobble: +-3 cm noise on the position is damped.
-    out = [tracker.update(meas(LEFT + np.array([0, 0, n])), meas(RIGHT + np.array([0, 0, n])), blind=False).left_m[2]
+    out = [tracker.update(meas(LEFT + np.array([0, 0, n])), meas(RIGHT + np.array([0, 0, n])), blind=False).left.fit_m[2]
            for n in rng.normal(0, 0.03, 50)]
     assert np.std(out) < 0.03 * 0.8
     # A bend tightening over 10 frames (25 fps, 0.4 s) is followed with little lag.
     for k in np.linspace(2e-4, 4e-3, 10):
         t = tracker.update(meas([k, 0.01, -1.8]), meas([k, 0.01, 1.9]), blind=False)
-    assert t.left_m[0] == pytest.approx(4e-3, rel=0.25)
+    assert t.left.fit_m[0] == pytest.approx(4e-3, rel=0.25)
 
 
 def test_the_inferred_line_is_a_lane_width_away_across_a_slanted_lane(tracker):
     slanted = np.array([0.0, 0.5, -1.8])  # the car heads 26.6 degrees off the lane
-    left, right = tracker.implied_lane(slanted, None)
+    left, right = implied_lane(slanted, None, 3.7)
     assert right[2] - left[2] == pytest.approx(3.7 * np.hypot(1.0, 0.5))
     assert right[1] == left[1] and right[0] == left[0]
 
 
-def _lose(tracker: LaneTracker) -> None:
+def _lose(tracker: Tracker) -> None:
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     for _ in range(tracker.cfg.lost_after + 1):
         t = tracker.update(None, None, blind=True)
-    assert t.state == LOST and tracker.was_lost
+    assert t.state == LOST and tracker.track.was_lost
 
 
 def test_after_the_lane_was_lost_a_weak_start_must_be_confirmed(tracker):
@@ -140,9 +162,9 @@ def test_after_the_lane_was_lost_a_weak_start_must_be_confirmed(tracker):
     # One line, confident enough to start, must be seen start_frames (3) times in the same place.
     for i in range(tracker.cfg.start_frames - 1):
         t = tracker.update(meas(LEFT, 0.5), None, blind=True)
-        assert t.state == LOST and "confirming" in t.checks, i
+        assert t.state == LOST and "confirming" in t.reasons, i
     t = tracker.update(meas(LEFT, 0.5), None, blind=True)
-    assert t.state == REDETECT and t.left_found and t.right_inferred
+    assert t.state == REDETECT and t.left.found and t.right.inferred
 
 
 def test_a_candidate_that_moves_is_not_confirmed(tracker):
@@ -152,11 +174,11 @@ def test_a_candidate_that_moves_is_not_confirmed(tracker):
         assert t.state == LOST
     # A weak pair needs two sightings; a confident pair starts at once.
     t = tracker.update(meas(LEFT, 0.35), meas(RIGHT, 0.35), blind=True)
-    assert t.state == LOST and "confirming" in t.checks
+    assert t.state == LOST and "confirming" in t.reasons
     t = tracker.update(meas(LEFT, 0.35), meas(RIGHT, 0.35), blind=True)
-    assert t.state == REDETECT and t.left_found and t.right_found
+    assert t.state == REDETECT and t.left.found and t.right.found
     tracker.reset()
-    assert not tracker.was_lost
+    assert not tracker.track.was_lost
     t = tracker.update(meas(LEFT, 0.35), meas(RIGHT, 0.35), blind=True)
     assert t.state == REDETECT, "at the start of a clip the first plausible lane is taken"
 
@@ -167,9 +189,9 @@ def test_a_guessed_line_comes_back_elsewhere_only_beside_an_anchored_line(tracke
         tracker.update(meas(LEFT), None, blind=False)
     moved = RIGHT + np.array([0, 0, -0.6])  # and then measured 0.6 m from the guess
     t = tracker.update(None, meas(moved), blind=False)
-    assert not t.right_found and "right-jump" in t.checks, "a lone line far from the track"
+    assert not t.right.found and "right-jump" in t.reasons, "a lone line far from the track"
     t = tracker.update(meas(LEFT), meas(moved), blind=False)
-    assert t.right_found and t.left_found, "beside the left line, where the track expects it"
+    assert t.right.found and t.left.found, "beside the left line, where the track expects it"
 
 
 def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(tracker):
@@ -182,8 +204,8 @@ def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(trac
     # so it must not be taken.
     far = LEFT + np.array([0, 0, -0.6])
     t = tracker.update(meas(far, conf=cfg.min_start_confidence - 0.05), None, blind=True)
-    assert not t.left_found and "one-line-start" in t.checks
-    assert t.has_lane and t.left_m[2] == pytest.approx(LEFT[2])  # still the held lane
+    assert not t.left.found and "one-line-start" in t.reasons
+    assert t.has_lane and t.left.fit_m[2] == pytest.approx(LEFT[2])  # still the held lane
     # A confident line alone does re-place the lane.
     t = tracker.update(meas(far, conf=0.9), None, blind=True)
-    assert t.left_found and t.left_m[2] == pytest.approx(far[2])
+    assert t.left.found and t.left.fit_m[2] == pytest.approx(far[2])

@@ -106,18 +106,42 @@ def test_corrupt_video_is_a_clear_error(tmp_path):
     assert not (tmp_path / "o.mp4").exists()
 
 
-def test_truncated_video_gives_a_partial_result(tmp_path):
-    cut = tmp_path / "cut.mp4"
-    data = CHALLENGE.read_bytes()
+def _faststart_copy(src, dst) -> None:
+    """Remux with the index (moov) in front, as streaming-friendly files have it."""
+    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
+        s_in = i.streams.video[0]
+        s_out = o.add_stream_from_template(s_in)
+        for pkt in i.demux(s_in):
+            if pkt.dts is not None:
+                pkt.stream = s_out
+                o.mux(pkt)
+
+
+@pytest.mark.slow
+def test_truncated_video_with_its_index_in_front_gives_the_frames_that_could_be_read(tmp_path):
+    whole, cut = tmp_path / "whole.mp4", tmp_path / "cut.mp4"
+    _faststart_copy(CHALLENGE, whole)
+    data = whole.read_bytes()
     cut.write_bytes(data[: int(len(data) * 0.6)])
     p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
                         "--telemetry", str(tmp_path / "t.csv"), "--quiet"], capture_output=True, text=True)
-    assert "Traceback" not in p.stderr
-    if p.returncode == 0:  # a partial result: playable, with matching telemetry
-        n = count_frames(tmp_path / "o.mp4")
-        assert 0 < n < 120 and len(read_telemetry(tmp_path / "t.csv")) == n
-    else:
-        assert p.returncode == 2 and p.stderr.startswith("lanefinder: error:")
+    assert p.returncode == 0, p.stderr
+    assert "the input ended early" in p.stdout
+    n = count_frames(tmp_path / "o.mp4")
+    assert 30 < n < 110 and len(read_telemetry(tmp_path / "t.csv")) == n
+
+
+@pytest.mark.slow
+def test_truncated_video_with_its_index_at_the_end_is_a_clear_error(tmp_path):
+    cut = tmp_path / "cut.mp4"
+    data = CHALLENGE.read_bytes()
+    assert data.find(b"moov") > len(data) // 2  # the clip keeps its index at the end
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
+                        "--telemetry", str(tmp_path / "t.csv"), "--quiet"], capture_output=True, text=True)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert p.stderr.startswith("lanefinder: error: cannot open video") and len(p.stderr.strip().splitlines()) == 1
+    assert not list(tmp_path.glob("o.mp4")) and not list(tmp_path.glob("t.csv")) and not list(tmp_path.glob(".*"))
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])

@@ -106,6 +106,14 @@ def config_cmd(default: bool, check: str | None, fmt: str, output: str | None) -
 
 
 # -- image -------------------------------------------------------------------------------
+def _line_word(row: dict, side: str) -> str:
+    return "yes" if row[f"{side}_found"] else ("infer" if row[f"{side}_inferred"] else "no")
+
+
+def _cell(v: float | None, fmt: str) -> str:
+    return "-" if v is None else format(v, fmt)
+
+
 @main.command()
 @click.argument("images", nargs=-1, required=True)
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
@@ -113,47 +121,27 @@ def config_cmd(default: bool, check: str | None, fmt: str, output: str | None) -
 @click.option("--stages", "stages_dir", type=click.Path(), help="Also write the intermediate images here.")
 def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_dir: str | None) -> None:
     """Find the lane in single IMAGES (files or folders) and write annotated copies."""
-    from .io import atomic_write_text, check_not_input, list_images, read_image, write_image
-    from .pipeline import LaneFinder
-    from .render import annotate
-    from .stages import write_stages
+    from .imagejob import process_images
+    from .io import list_images
 
     cfg = _config(config_path)
     paths = list_images(images)
-    finder = LaneFinder(cfg)
-    out = Path(outdir)
-    rows, failures = [], 0
     click.echo(f"{'image':<22} {'left':<5} {'right':<5} {'radius m':>9} {'offset m':>9} {'width m':>8} {'ms':>6}")
-    for p in paths:
-        dest = out / f"{p.stem}.jpg"
-        try:
-            check_not_input(dest, paths)
-            frame = read_image(p)
-            finder.reset()
-            t0 = time.perf_counter()
-            result = finder.process(frame)
-            ms = (time.perf_counter() - t0) * 1000
-            be = finder.birdseye((frame.shape[1], frame.shape[0]))
-            write_image(dest, annotate(frame, result, be, cfg.render))
-            if stages_dir:
-                write_stages(Path(stages_dir), p.stem, frame, finder)
-        except LaneFinderError as e:
-            _fail(str(e))
-            failures += 1
-            continue
-        lr = "yes" if result.left_found else ("infer" if result.left_inferred else "no")
-        rr = "yes" if result.right_found else ("infer" if result.right_inferred else "no")
-        click.echo(f"{p.name:<22} {lr:<5} {rr:<5} {result.radius_m:>9.0f} {result.offset_m:>9.3f} "
-                   f"{result.width_m:>8.3f} {ms:>6.1f}")
-        rows.append({"image": str(p), "output": str(dest), "left_found": result.left_found,
-                     "right_found": result.right_found, "radius_m": _num(result.radius_m),
-                     "curvature_per_m": _num(result.curvature_per_m), "offset_m": _num(result.offset_m),
-                     "width_m": _num(result.width_m), "ms": round(ms, 2)})
-    if rows:
-        atomic_write_text(out / "results.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
-        click.echo(f"wrote {len(rows)} image(s) and results.jsonl to {out}")
-    if failures:
-        sys.exit(1)
+
+    def show(row: dict) -> None:
+        click.echo(f"{Path(row['image']).name:<22} {_line_word(row, 'left'):<5} {_line_word(row, 'right'):<5} "
+                   f"{_cell(row['radius_m'], '9.0f'):>9} {_cell(row['offset_m'], '9.3f'):>9} "
+                   f"{_cell(row['width_m'], '8.3f'):>8} {row['ms']:>6.1f}")
+
+    run = process_images(paths, outdir, cfg, stages_dir, on_row=show)
+    for src, name in run.renamed:
+        click.echo(f"note: {src} -> {name} (another input has the same name)")
+    if run.results:
+        click.echo(f"wrote {len(run.rows)} image(s) and {Path(run.results).name} to {outdir}")
+    for src, reason in run.failures:
+        _fail(reason if src in reason else f"{src}: {reason}")
+    if run.failures:
+        sys.exit(2)
 
 
 # -- video -------------------------------------------------------------------------------
@@ -182,7 +170,8 @@ def video(src: str, output: str, config_path: str | None, start_s: float, end_s:
         cfg = cfg.model_copy(update={"video": v})
     if Path(output).suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output must be an .mp4 file: {output}")
-    summary = process_video(src, output, cfg, start_s, end_s, telemetry, debug, sheet, progress=not quiet)
+    summary = process_video(src, output, cfg, start_s=start_s, end_s=end_s, telemetry=telemetry, debug=debug,
+                            contact_sheet_path=sheet, progress=not quiet)
     for line in summary.lines():
         click.echo(line)
     if sheet:
@@ -318,10 +307,6 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     prev = Path(output).with_name(Path(output).stem + "_preview.png")
     write_image(prev, preview(images[0], result, camera))
     click.echo(f"wrote {output} and {prev}; use it with: lanefinder video IN.mp4 -o OUT.mp4 -c {output}")
-
-
-def _num(v: float) -> float | None:
-    return None if v != v else round(float(v), 6)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -142,7 +142,8 @@ class ThresholdConfig(_Section):
 
 class SearchConfig(_Section):
     """Finding line pixels in the bird's-eye binary.  Sizes are in metres on the road and turn
-    into pixels through the bird's-eye scale, so they hold for any set-up."""
+    into pixels through the bird's-eye scale, so they hold for any set-up.
+    """
 
     method: Literal["windows", "segments"] = "windows"
     n_windows: Annotated[int, Field(ge=2, le=100)] = 12
@@ -160,6 +161,28 @@ class SearchConfig(_Section):
     # Each window of that angled search keeps only the pixels within this distance of its
     # strongest ridge, so clutter beside a slanted line stays out of its fit (0 keeps them all).
     heading_band_m: Annotated[float, Field(ge=0)] = 0.3
+    # Line bases: the base histogram counts rows above the lower ``histogram_fraction`` with this
+    # weight (a line with a gap at the bottom still gets a base), is smoothed over
+    # ``peak_smoothing_m``, and its ``max_peaks`` highest peaks of at least ``base_min_fraction``
+    # of a window's pixels are paired; a pair off-centre by a lane width loses
+    # ``centre_preference`` of its score.
+    upper_histogram_weight: Fraction = 0.5
+    peak_smoothing_m: PositiveFloat = 0.22
+    max_peaks: Annotated[int, Field(ge=1, le=64)] = 8
+    base_min_fraction: Fraction = 0.25
+    centre_preference: Fraction = 0.3
+    # Windows follow a bend: the next window moves by ``momentum`` of the last move plus the rest
+    # of the latest drift; past an empty window the move shrinks by ``empty_window_decay``.
+    momentum: Fraction = 0.5
+    empty_window_decay: Fraction = 0.5
+    # Segment search: a segment's histogram spans ``segment_reach`` margins either side, its
+    # peak may lie ``segment_max_shift`` margins from where the line is heading, and keeps the
+    # pixels within ``segment_band`` of a margin of it; a segment needs ``segment_min_fraction``
+    # of a window's pixels.
+    segment_reach: PositiveFloat = 2.0
+    segment_max_shift: PositiveFloat = 1.5
+    segment_band: Fraction = 0.5
+    segment_min_fraction: Fraction = 0.5
 
 
 class FitConfig(_Section):
@@ -172,6 +195,10 @@ class FitConfig(_Section):
     residual_scale_m: PositiveFloat = 0.09
     min_span_fraction: Fraction = 0.25
     parallel: Fraction = 1.0
+    # Span of the view (fraction of its height) a line must cover for full confidence.
+    full_span_fraction: Annotated[float, Field(gt=0, le=1)] = 0.6
+    # A line with more pixels is fitted on an even subsample of this many (bounds the cost).
+    max_points: Annotated[int, Field(ge=10, le=100000)] = 1200
     max_radius_m: PositiveFloat = 10000.0
     straight_radius_m: PositiveFloat = 3000.0
 
@@ -187,14 +214,37 @@ class TrackingConfig(_Section):
     max_parallel_diff_m: PositiveFloat = 0.9
     max_curvature_diff: PositiveFloat = 0.004
     max_offset_jump_m: PositiveFloat = 0.4
+    # The jump limit at the far end of the view, as a multiple of ``max_offset_jump_m``.
+    far_jump_factor: PositiveFloat = 3.0
     max_offset_m: PositiveFloat = 0.9
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
     max_one_line_frames: PositiveInt = 50
     min_start_confidence: Fraction = 0.45
     start_frames: PositiveInt = 3
+    # No marking down the middle: set pixels in the middle half of a candidate lane, binned in
+    # strips ``interior_strip_m`` wide (a strip counts on a row with ``interior_min_pixels``);
+    # a strip filled on more than ``max_interior_fill`` of at least ``interior_min_rows`` rows,
+    # and on ``interior_excess`` more of them than the median strip, is a marking.
     max_interior_fill: Fraction = 0.6
+    interior_strip_m: PositiveFloat = 0.2
+    interior_excess: Fraction = 0.4
+    interior_min_pixels: PositiveInt = 2
+    interior_min_rows: PositiveInt = 10
+    # Smoothing of the metre fits: the gain is (1 - smoothing) * (f + (1 - f) * confidence), with
+    # f = ``smoothing_conf_floor``, plus ``smoothing_fast_gain`` times the change at the far end
+    # relative to the jump limit (so bends are followed without lag), at least
+    # ``smoothing_min_gain``.  The tracked lane width moves by ``width_smoothing`` per frame.
     smoothing: Fraction = 0.5
+    smoothing_conf_floor: Fraction = 0.4
+    smoothing_fast_gain: Fraction = 0.3
+    smoothing_min_gain: Fraction = 0.05
+    width_smoothing: Fraction = 0.1
+    # A pair that fails the lane checks keeps one line, and both confidences are scaled by
+    # ``rejected_pair_confidence``; an inferred line is smoothed with ``inferred_weight`` times
+    # the confidence of the line it is drawn from.
+    rejected_pair_confidence: Fraction = 0.5
+    inferred_weight: Fraction = 0.5
     min_confidence: Fraction = 0.3
     # Where a yellow marking may bound the car's lane: "left" for right-hand traffic as in North
     # America (yellow separates opposing traffic, so it is never the lane's right line), "right"

@@ -38,10 +38,31 @@ class LineFit:
     span: float
     confidence: float
 
-    def x_at(self, y: np.ndarray | float) -> np.ndarray:
-        a, b, c = self.coeffs_px
-        y = np.asarray(y, np.float64)
-        return (a * y + b) * y + c
+
+def poly_x(coeffs: np.ndarray, y: np.ndarray | float) -> np.ndarray | float:
+    """Evaluate a second-order line fit x = a*y^2 + b*y + c.
+
+    The one place the fit polynomial is written out: pixel fits take bird's-eye rows ``y``,
+    metre fits take distances ``d`` ahead.
+
+    Parameters
+    ----------
+    coeffs : (3,) array_like
+        (a, b, c) of a pixel fit, or (A, B, C) of a metre fit.
+    y : float or ndarray
+        Rows (pixels) or distances ahead (m) to evaluate at.
+
+    Returns
+    -------
+    float or ndarray
+        x at each ``y``, in the fit's unit (pixels or metres).
+
+    Examples
+    --------
+    >>> poly_x(np.array([0.001, -0.5, 200.0]), np.array([0.0, 100.0]))
+    array([200., 160.])
+    """
+    return (coeffs[0] * y + coeffs[1]) * y + coeffs[2]
 
 
 @dataclass(frozen=True)
@@ -65,6 +86,8 @@ class FitParams:
     robust_iterations: int
     min_span_fraction: float
     parallel: float
+    full_span_fraction: float
+    max_points: int
 
 
 def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
@@ -78,12 +101,15 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
         robust_iterations=cfg.robust_iterations,
         min_span_fraction=cfg.min_span_fraction,
         parallel=cfg.parallel,
+        full_span_fraction=cfg.full_span_fraction,
+        max_points=cfg.max_points,
     )
 
 
 def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
     """Weighted least-squares polynomial x(y) via the normal equations, on y centred and
-    scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c."""
+    scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c.
+    """
     y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
     t = (y - y0) / ys
     basis = np.stack([t * t, t, np.ones_like(t)] if degree == 2 else [t, np.ones_like(t)])
@@ -100,8 +126,7 @@ def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.n
     return np.array([a, b, c])
 
 
-def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
-             max_points: int = 1200) -> LineFit | None:
+def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
     """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
 
     Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
@@ -109,8 +134,8 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
-    if n > max_points:  # an even subsample keeps the fit and bounds the cost
-        step = n // max_points + 1
+    if n > cfg.max_points:  # an even subsample keeps the fit and bounds the cost
+        step = n // cfg.max_points + 1
         x, y = x[::step], y[::step]
     x = x.astype(np.float64)
     y = y.astype(np.float64)
@@ -119,14 +144,14 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams,
     w = np.ones_like(x)
     coeffs = _lstsq_fit(y, x, w, degree)
     for _ in range(cfg.robust_iterations):
-        r = np.abs(x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2]))
+        r = np.abs(x - poly_x(coeffs, y))
         w = np.minimum(1.0, cfg.huber_px / np.maximum(r, 1e-9))
         coeffs = _lstsq_fit(y, x, w, degree)
-    r = x - ((coeffs[0] * y + coeffs[1]) * y + coeffs[2])
+    r = x - poly_x(coeffs, y)
     residual = float(np.sqrt(np.average(r * r, weights=w)))
     support = min(1.0, n / cfg.support_pixels)
     quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
-    confidence = float(np.clip(math.sqrt(min(1.0, span / 0.6)) * support * quality, 0.0, 1.0))
+    confidence = float(np.clip(math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality, 0.0, 1.0))
     return LineFit(coeffs, n, residual, span, confidence)
 
 
@@ -155,7 +180,7 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         lam = cfg.parallel * pull
         ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
         yy = y.astype(np.float64)
-        c = float(np.median(x - (ab[0] * yy + ab[1]) * yy))
+        c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), yy)))
         out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))
     return out[0], out[1]
 
@@ -203,8 +228,6 @@ class LaneGeometry:
 
     curvature_per_m: float
     radius_m: float
-    left_radius_m: float
-    right_radius_m: float
     offset_m: float
     width_m: float
     straight: bool
@@ -218,8 +241,6 @@ def lane_geometry(left_m: np.ndarray, right_m: np.ndarray, cfg: FitConfig) -> La
     return LaneGeometry(
         curvature_per_m=k,
         radius_m=radius,
-        left_radius_m=radius_from_curvature(curvature_per_m(left_m), cfg.max_radius_m),
-        right_radius_m=radius_from_curvature(curvature_per_m(right_m), cfg.max_radius_m),
         offset_m=float(-centre[2]),
         width_m=lane_width_m(left_m, right_m),
         straight=radius >= cfg.straight_radius_m,

@@ -1,6 +1,7 @@
 """Drawing: the lane on the original frame, the HUD, debug views and figures.
 
-Annotators are plain functions that draw onto a frame and return it.
+Annotators are plain functions that draw onto a frame and return it; they compose
+(:func:`annotate` is :func:`draw_lane` then :func:`draw_hud`).
 """
 
 from __future__ import annotations
@@ -10,28 +11,95 @@ import numpy as np
 
 from .birdseye import BirdsEye
 from .config import RenderConfig
-from .pipeline import LaneResult
+from .errors import LaneFinderError
+from .geometry import poly_x
+from .lane import LaneResult
 from .search import SearchResult
 
+__all__ = [
+    "FONT",
+    "N_SAMPLES",
+    "annotate",
+    "contact_sheet",
+    "draw_debug",
+    "draw_hud",
+    "draw_lane",
+    "hud_lines",
+    "lane_polylines",
+    "search_view",
+]
+
+#: The HUD's font.
 FONT = cv2.FONT_HERSHEY_SIMPLEX
+#: Points per drawn line.
 N_SAMPLES = 24
 
 
 def lane_polylines(result: LaneResult, be: BirdsEye, n: int = N_SAMPLES) -> tuple[np.ndarray, np.ndarray] | None:
-    """Left and right lines as Nx2 points on the original (distorted) frame, or None."""
+    """Map the lane's two lines onto the original (distorted) frame.
+
+    Parameters
+    ----------
+    result : LaneResult
+        The frame's result.
+    be : BirdsEye
+        The set-up it was found with.
+    n : int
+        Points per line, spread over the bird's-eye view's height.
+
+    Returns
+    -------
+    tuple of (N, 2) ndarray, or None
+        Left and right line points (x, y) in frame pixels; None when no lane is shown.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import LaneFinder
+    >>> finder = LaneFinder()
+    >>> r = finder.process(cv2.imread("data/test_images/test3.jpg"))
+    >>> left, right = lane_polylines(r, finder.birdseye((1280, 720)))
+    >>> left.shape, bool(left[-1, 0] < right[-1, 0])
+    ((24, 2), True)
+    """
     if not result.lane_found:
         return None
     y = np.linspace(0, be.size[1], n)
-    a, b, c = result.left_fit_px
-    left = np.column_stack([(a * y + b) * y + c, y])
-    a, b, c = result.right_fit_px
-    right = np.column_stack([(a * y + b) * y + c, y])
+    left, right = (np.column_stack([poly_x(line.fit_px, y), y]) for line in result.lines)
     pts = be.to_frame(np.vstack([left, right]))
     return pts[:n], pts[n:]
 
 
 def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderConfig) -> np.ndarray:
-    """Fill the lane and draw both lines on ``frame`` (in place); returns the frame."""
+    """Fill the lane and draw both lines on a frame, in place.
+
+    A line that was inferred (not seen) is drawn dashed.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The original frame, BGR; drawn on.
+    result : LaneResult
+        The frame's result.
+    be : BirdsEye
+        The set-up it was found with.
+    cfg : RenderConfig
+        Colours, opacity and line thickness.
+
+    Returns
+    -------
+    ndarray
+        ``frame``.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import Config, LaneFinder
+    >>> finder, img = LaneFinder(), cv2.imread("data/test_images/test3.jpg")
+    >>> out = draw_lane(img.copy(), finder.process(img), finder.birdseye((1280, 720)), Config().render)
+    >>> bool((out != img).any())
+    True
+    """
     lines = lane_polylines(result, be)
     if lines is None:
         return frame
@@ -47,8 +115,8 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
         cv2.fillPoly(layer, [np.round(poly - (x0, y0)).astype(np.int32)], cfg.lane_color, cv2.LINE_8)
         cv2.addWeighted(layer, cfg.alpha, roi, 1 - cfg.alpha, 0, dst=roi)
     t = cfg.line_thickness
-    for pts, color, inferred in ((left, cfg.left_color, result.left_inferred),
-                                 (right, cfg.right_color, result.right_inferred)):
+    for pts, color, inferred in ((left, cfg.left_color, result.left.inferred),
+                                 (right, cfg.right_color, result.right.inferred)):
         p = np.round(pts).astype(np.int32)
         if inferred:  # dashed: drawn from the other line, not seen
             for i in range(0, len(p) - 1, 2):
@@ -59,7 +127,25 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
 
 
 def hud_lines(result: LaneResult) -> list[str]:
-    """The HUD text for a result."""
+    """Return the HUD text for a result.
+
+    Parameters
+    ----------
+    result : LaneResult
+        The frame's result.
+
+    Returns
+    -------
+    list of str
+        Radius, offset and width lines, or ``["lane lost"]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from lanefinder import LaneFinder
+    >>> hud_lines(LaneFinder().process(np.zeros((720, 1280, 3), np.uint8)))
+    ['lane lost']
+    """
     if not result.lane_found:
         return ["lane lost"]
     if result.straight:
@@ -77,7 +163,31 @@ def hud_lines(result: LaneResult) -> list[str]:
 
 def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20, 20),
              warn: bool = False) -> np.ndarray:
-    """Text box in the top-left corner (in place); scales with the frame height."""
+    """Draw a text box in the top-left corner, in place; it scales with the frame height.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The frame; drawn on.
+    lines : list of str
+        The text, one entry per line.
+    origin : tuple of int
+        Top-left corner of the box, pixels.
+    warn : bool
+        Draw the text in the warning colour.
+
+    Returns
+    -------
+    ndarray
+        ``frame``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> out = draw_hud(np.zeros((360, 640, 3), np.uint8), ["lane lost"], warn=True)
+    >>> bool(out.any())
+    True
+    """
     h = frame.shape[0]
     scale = max(0.4, h / 720 * 0.9)
     thick = max(1, round(2 * h / 720))
@@ -94,7 +204,36 @@ def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20,
 
 def annotate(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderConfig,
              extra: list[str] | None = None, inplace: bool = False) -> np.ndarray:
-    """Lane and HUD on a copy of ``frame`` (or on ``frame`` itself with ``inplace``)."""
+    """Draw the lane and the HUD on a copy of a frame (or on the frame itself).
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The original frame, BGR.
+    result : LaneResult
+        The frame's result.
+    be : BirdsEye
+        The set-up it was found with.
+    cfg : RenderConfig
+        Colours, opacity, thickness and whether to draw the HUD.
+    extra : list of str, optional
+        More HUD lines.
+    inplace : bool
+        Draw on ``frame`` itself.
+
+    Returns
+    -------
+    ndarray
+        The annotated frame.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import Config, LaneFinder
+    >>> finder, img = LaneFinder(), cv2.imread("data/test_images/test3.jpg")
+    >>> annotate(img, finder.process(img), finder.birdseye((1280, 720)), Config().render).shape
+    (720, 1280, 3)
+    """
     out = frame if inplace else frame.copy()
     draw_lane(out, result, be, cfg)
     if cfg.hud:
@@ -104,7 +243,30 @@ def annotate(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCon
 
 def search_view(binary: np.ndarray, search: SearchResult | None, result: LaneResult | None,
                 show_histogram: bool = True) -> np.ndarray:
-    """Bird's-eye binary in colour with line pixels, windows or band, fits and histogram."""
+    """Draw the bird's-eye binary in colour with line pixels, windows or band, fits and histogram.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    search : SearchResult or None
+        The search (pixels, windows or band, histogram).
+    result : LaneResult or None
+        The result whose shown lines are drawn.
+    show_histogram : bool
+        Draw the search's histogram along the bottom.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        The picture.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> search_view(np.zeros((300, 400), np.uint8), None, None).shape
+    (300, 400, 3)
+    """
     h, w = binary.shape
     view = cv2.cvtColor(binary * 255, cv2.COLOR_GRAY2BGR)
     if search is not None:
@@ -115,8 +277,8 @@ def search_view(binary: np.ndarray, search: SearchResult | None, result: LaneRes
                 cv2.rectangle(view, (x0, y0), (x1, y1 - 1), (0, 255, 0) if ok else (0, 120, 255), 2)
     y = np.arange(h, dtype=np.float64)
     if result is not None and result.lane_found:
-        for fit in (result.left_fit_px, result.right_fit_px):
-            x = (fit[0] * y + fit[1]) * y + fit[2]
+        for line in result.lines:
+            x = poly_x(line.fit_px, y)
             if search is not None and search.band_px:
                 for dx in (-search.band_px, search.band_px):
                     p = np.column_stack([x + dx, y]).round().astype(np.int32)
@@ -128,3 +290,90 @@ def search_view(binary: np.ndarray, search: SearchResult | None, result: LaneRes
         cv2.polylines(view, [np.column_stack([np.arange(w), ys]).round().astype(np.int32)], False,
                       (255, 0, 255), 2)
     return view
+
+
+def draw_debug(frame: np.ndarray, result: LaneResult) -> np.ndarray:
+    """Draw a picture-in-picture of the bird's-eye search in the top-right corner, in place.
+
+    Shows the binary with the windows or band and the fits, the state, each line's confidence
+    and pixel count, and the checks that failed.  Needs a result made with ``keep_debug``.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The frame; drawn on.
+    result : LaneResult
+        The frame's result, with ``binary`` and ``search`` kept.
+
+    Returns
+    -------
+    ndarray
+        ``frame`` (unchanged when the result kept no debug images).
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import LaneFinder
+    >>> img = cv2.imread("data/test_images/test3.jpg")
+    >>> out = draw_debug(img.copy(), LaneFinder(keep_debug=True).process(img))
+    >>> bool((out[10:100, -400:] != img[10:100, -400:]).any())
+    True
+    """
+    if result.binary is None:
+        return frame
+    w = frame.shape[1]
+    view = search_view(result.binary, result.search, result, show_histogram=True)
+    pw = w // 3
+    ph = round(view.shape[0] * pw / view.shape[1])
+    pip = cv2.resize(view, (pw, ph), interpolation=cv2.INTER_AREA)
+    text = [f"{result.state}  misses {result.misses}"]
+    text += [f"{side[0].upper()} conf {line.confidence:.2f} px {line.n_pixels}"
+             for side, line in zip(("left", "right"), result.lines, strict=True)]
+    if result.checks:
+        text.append("failed: " + ",".join(result.checks))
+    for i, s in enumerate(text):
+        cv2.putText(pip, s, (8, 20 + 20 * i), FONT, 0.5, (0, 255, 255), 1, cv2.LINE_AA)
+    frame[10:10 + ph, w - pw - 10:w - 10] = pip
+    return frame
+
+
+def contact_sheet(thumbs: list[tuple[float, np.ndarray]], cols: int = 5) -> np.ndarray:
+    """Lay out labelled thumbnails in a grid, each with its time as m:ss.ss.
+
+    Parameters
+    ----------
+    thumbs : list of (float, ndarray)
+        (time in seconds, BGR thumbnail) pairs, all of one size.
+    cols : int
+        Thumbnails per row.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        The sheet.
+
+    Raises
+    ------
+    LaneFinderError
+        When there are no thumbnails.
+
+    Examples
+    --------
+    >>> tiles = [(t, np.zeros((90, 160, 3), np.uint8)) for t in (0.0, 1.5, 3.0)]
+    >>> contact_sheet(tiles, cols=2).shape
+    (192, 332, 3)
+    """
+    if not thumbs:
+        raise LaneFinderError("no frames for a contact sheet")
+    th, tw = thumbs[0][1].shape[:2]
+    rows = (len(thumbs) + cols - 1) // cols
+    sheet = np.full((rows * (th + 4) + 4, cols * (tw + 4) + 4, 3), 32, np.uint8)
+    for i, (t, img) in enumerate(thumbs):
+        r, c = divmod(i, cols)
+        y, x = 4 + r * (th + 4), 4 + c * (tw + 4)
+        tile = img.copy()
+        label = f"{int(t // 60)}:{t % 60:05.2f}"
+        cv2.rectangle(tile, (0, th - 24), (len(label) * 11 + 10, th), (0, 0, 0), -1)
+        cv2.putText(tile, label, (5, th - 7), FONT, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+        sheet[y:y + th, x:x + tw] = tile
+    return sheet

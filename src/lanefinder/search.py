@@ -16,9 +16,15 @@ import cv2
 import numpy as np
 
 from .config import SearchConfig
+from .geometry import poly_x
 
 # A window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels; found tells if it held enough pixels.
 Window = tuple[int, int, int, int, bool]
+
+# Fewest pixels a window may ask for, whatever the scale (a window of 3 pixels is noise).
+_MIN_WINDOW_PIXELS = 3
+# Width (columns) of the box filter on a segment's histogram; a peak's sum is its mean times this.
+_SEGMENT_BLUR_PX = 5
 
 
 @dataclass(frozen=True)
@@ -33,7 +39,17 @@ class SearchParams:
     around_margin_px: float
     expected_width_px: float
     width_tolerance: float
-    marking_px: float = 6.0
+    upper_histogram_weight: float
+    peak_smoothing_px: int
+    max_peaks: int
+    base_min_count: float
+    centre_preference: float
+    momentum: float
+    empty_window_decay: float
+    segment_reach: float
+    segment_max_shift: float
+    segment_band: float
+    segment_min_fraction: float
     # Slopes tried by :func:`heading_search`: bird's-eye pixels right per pixel up.
     shears_px: tuple[float, ...] = ()
     # Half-width of the band around each window's ridge that :func:`heading_search` keeps.
@@ -47,16 +63,27 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
     angles = [k * cfg.heading_step_deg for k in range(-n, n + 1) if k != 0]
     # A line heading at angle a moves tan(a) metres sideways per metre ahead.
     shears = tuple(float(np.tan(np.radians(a)) * ym_per_px / xm_per_px) for a in angles)
+    min_pixels = max(_MIN_WINDOW_PIXELS, round(cfg.min_window_marking_m * per_m))
     return SearchParams(
         method=cfg.method,
         n_windows=cfg.n_windows,
         margin_px=cfg.margin_m / xm_per_px,
-        min_pixels=max(3, round(cfg.min_window_marking_m * per_m)),
+        min_pixels=min_pixels,
         histogram_fraction=cfg.histogram_fraction,
         around_margin_px=cfg.around_margin_m / xm_per_px,
         expected_width_px=cfg.lane_width_m / xm_per_px,
         width_tolerance=cfg.width_tolerance,
-        marking_px=cfg.marking_width_m / xm_per_px,
+        upper_histogram_weight=cfg.upper_histogram_weight,
+        peak_smoothing_px=max(1, round(cfg.peak_smoothing_m / xm_per_px)),
+        max_peaks=cfg.max_peaks,
+        base_min_count=min_pixels * cfg.base_min_fraction,
+        centre_preference=cfg.centre_preference,
+        momentum=cfg.momentum,
+        empty_window_decay=cfg.empty_window_decay,
+        segment_reach=cfg.segment_reach,
+        segment_max_shift=cfg.segment_max_shift,
+        segment_band=cfg.segment_band,
+        segment_min_fraction=cfg.segment_min_fraction,
         shears_px=shears,
         heading_band_px=cfg.heading_band_m / xm_per_px,
     )
@@ -121,7 +148,7 @@ def _smooth(hist: np.ndarray, width: int) -> np.ndarray:
     return cv2.blur(hist.reshape(1, -1), (max(1, width), 1)).ravel()
 
 
-def _local_maxima(h: np.ndarray, min_count: float, most: int = 8) -> np.ndarray:
+def _local_maxima(h: np.ndarray, min_count: float, most: int) -> np.ndarray:
     """Indices of the ``most`` highest local maxima of ``h`` at or above ``min_count``."""
     if h.size < 3:
         return np.empty(0, int)
@@ -130,23 +157,22 @@ def _local_maxima(h: np.ndarray, min_count: float, most: int = 8) -> np.ndarray:
     return idx[np.argsort(h[idx])[::-1][:most]]
 
 
-def find_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tolerance: float,
-               min_count: float = 1.0) -> tuple[float | None, float | None]:
+def find_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[float | None, float | None]:
     """Left and right line x at the bottom from a (column) histogram.
 
     Of all pairs of peaks, one left and one right of the car, whose spacing is the expected
     lane width within ``tolerance``, the pair with the most support wins.  With no such
     pair, the strongest peak is kept alone on its side of the car.
     """
-    left, right, _ = _scored_bases(hist, car_x, expected_width_px, tolerance, min_count)
+    left, right, _ = _scored_bases(hist, car_x, cfg)
     return left, right
 
 
-def _scored_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tolerance: float,
-                  min_count: float) -> tuple[float | None, float | None, float]:
+def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[float | None, float | None, float]:
     """:func:`find_bases` and the support of its answer (a lone peak counts half)."""
-    hs = _smooth(hist, 9)
-    peaks = _local_maxima(hs, min_count)
+    expected_width_px, tolerance = cfg.expected_width_px, cfg.width_tolerance
+    hs = _smooth(hist, cfg.peak_smoothing_px)
+    peaks = _local_maxima(hs, cfg.base_min_count, cfg.max_peaks)
     if peaks.size == 0:
         return None, None, 0.0
     lo_w, hi_w = expected_width_px * (1 - tolerance), expected_width_px * (1 + tolerance)
@@ -157,7 +183,7 @@ def _scored_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tole
     if valid.any():
         # Support of both peaks, and a mild preference for a lane around the car.
         centre_penalty = np.abs((li + ri) / 2 - car_x) / expected_width_px
-        score = np.where(valid, (hs[li] + hs[ri]) * (1 - 0.3 * centre_penalty), -np.inf)
+        score = np.where(valid, (hs[li] + hs[ri]) * (1 - cfg.centre_preference * centre_penalty), -np.inf)
         i, j = np.unravel_index(int(np.argmax(score)), score.shape)
         return float(li[i, j]), float(ri[i, j]), float(score[i, j])
     best = int(peaks[0])
@@ -165,8 +191,8 @@ def _scored_bases(hist: np.ndarray, car_x: float, expected_width_px: float, tole
     return (*side, 0.5 * float(hs[best]))
 
 
-def base_histogram(binary: np.ndarray, fraction: float) -> np.ndarray:
-    """Column support for line bases: the lower ``fraction`` counts fully, the rest half.
+def base_histogram(binary: np.ndarray, fraction: float, upper_weight: float) -> np.ndarray:
+    """Column support for line bases: the lower ``fraction`` counts fully, the rest ``upper_weight``.
 
     A line with a gap at the bottom (between dashes) still gets a base from higher up.
     """
@@ -176,7 +202,7 @@ def base_histogram(binary: np.ndarray, fraction: float) -> np.ndarray:
     if cut <= 0:
         return lower
     upper = cv2.reduce(binary[:cut], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel().astype(np.float32)
-    return lower + 0.5 * upper
+    return lower + upper_weight * upper
 
 
 def _take(px: Pixels, parts: list[np.ndarray]) -> LinePixels:
@@ -234,14 +260,14 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
             # Until two windows in a row have been found, the starting slope stands; after a
             # gap (a found window before this one, but not just below it), the drift restarts.
             if last_x is not None:
-                step = 0.5 * step + 0.5 * (new_x - last_x)
+                step = cfg.momentum * step + (1 - cfg.momentum) * (new_x - last_x)
             elif len(parts) > 1:
                 step = 0.0
             last_x = new_x
             x_c = new_x + step
         else:
             last_x = None
-            step *= 0.5  # an empty window: keep going, but less and less sure of the bend
+            step *= cfg.empty_window_decay  # an empty window: keep going, less and less sure of the bend
             x_c += step
         if not -cfg.margin_px < x_c < w + cfg.margin_px:
             break
@@ -252,8 +278,8 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
 def _blind(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None, method: str) -> SearchResult:
     """Line bases from the column histogram, then each line followed up by ``method``."""
     px = pixels or Pixels.of(binary)
-    hist = base_histogram(binary, cfg.histogram_fraction)
-    bases = find_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance, min_count=cfg.min_pixels / 4)
+    hist = base_histogram(binary, cfg.histogram_fraction, cfg.upper_histogram_weight)
+    bases = find_bases(hist, car_x, cfg)
     if method == "segments":
         left, right = _segments_for(binary, px, bases[0], cfg), _segments_for(binary, px, bases[1], cfg)
     else:
@@ -276,7 +302,9 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
     last_x: float | None = None
     parts: list[np.ndarray] = []
     windows: list[Window] = []
-    reach = 2 * cfg.margin_px
+    reach = cfg.segment_reach * cfg.margin_px
+    band = cfg.segment_band * cfg.margin_px
+    min_sum = cfg.min_pixels * cfg.segment_min_fraction
     for i in range(cfg.n_windows):
         y_hi = round(h - i * seg_h)
         y_lo = round(h - (i + 1) * seg_h)
@@ -284,24 +312,24 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
         found = False
         if x_hi - x_lo > 4:
             hist = _smooth(cv2.reduce(binary[y_lo:y_hi, x_lo:x_hi], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
-                           .ravel().astype(np.float32), 5)
+                           .ravel().astype(np.float32), _SEGMENT_BLUR_PX)
             j = int(np.argmax(hist))
             peak_x = float(x_lo + j)
             # Reject a peak that is weak, or far from where the line is heading.
-            found = hist[j] * 5 >= cfg.min_pixels / 2 and abs(peak_x - x_c) <= 1.5 * cfg.margin_px
+            found = hist[j] * _SEGMENT_BLUR_PX >= min_sum and abs(peak_x - x_c) <= cfg.segment_max_shift * cfg.margin_px
             if found:
                 sl = px.rows(y_lo, y_hi)
-                sel = np.flatnonzero(np.abs(px.x[sl] - peak_x) < cfg.margin_px / 2)
-                found = sel.size >= cfg.min_pixels / 2
+                sel = np.flatnonzero(np.abs(px.x[sl] - peak_x) < band)
+                found = sel.size >= min_sum
                 if found:
                     parts.append(sel + sl.start)
-                    step = 0.5 * step + 0.5 * (peak_x - last_x) if last_x is not None else 0.0
+                    step = cfg.momentum * step + (1 - cfg.momentum) * (peak_x - last_x) if last_x is not None else 0.0
                     last_x = peak_x
                     x_c = peak_x + step
-        windows.append((int(x_c - cfg.margin_px / 2), y_lo, int(x_c + cfg.margin_px / 2), y_hi, bool(found)))
+        windows.append((int(x_c - band), y_lo, int(x_c + band), y_hi, bool(found)))
         if not found:
             last_x = None
-            step *= 0.5
+            step *= cfg.empty_window_decay
             x_c += step
     lp = _take(px, parts)
     return LinePixels(lp.x, lp.y, tuple(windows))
@@ -342,8 +370,7 @@ def heading_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: 
     best: tuple[float, float, tuple[float | None, float | None], np.ndarray | None] = (0.0, 0.0, (None, None), None)
     for shear in cfg.shears_px:
         hist = sheared_histogram(px, shear, cfg.histogram_fraction)
-        left, right, score = _scored_bases(hist, car_x, cfg.expected_width_px, cfg.width_tolerance,
-                                           cfg.min_pixels / 4)
+        left, right, score = _scored_bases(hist, car_x, cfg)
         if score > best[0]:
             best = (score, shear, (left, right), hist)
     _, shear, bases, hist = best
@@ -356,7 +383,7 @@ def _around(px: Pixels, fit: np.ndarray | None, margin: float) -> LinePixels:
     if fit is None or px.x.size == 0:
         return EMPTY
     y = px.y.astype(np.float32)
-    pred = (fit[0] * y + fit[1]) * y + fit[2]
+    pred = poly_x(fit, y)
     sel = np.flatnonzero(np.abs(px.x - pred) < margin)
     return LinePixels(px.x[sel].astype(np.float32), y[sel])
 

@@ -12,10 +12,34 @@ from .pipeline import LaneFinder
 from .render import annotate, search_view
 from .threshold import threshold
 
+__all__ = ["stage_images", "write_stages"]
+
 
 def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]:
-    """Named stage images: undistorted, binary, birdseye, birdseye_binary, windows, final."""
-    debug = LaneFinder(finder.config, camera=finder._camera, keep_debug=True)
+    """Return the named stage images of one frame, found blind (no track).
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The original frame, BGR.
+    finder : LaneFinder
+        Gives the configuration and the camera.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``1_undistorted`` (with the source trapezoid), ``2_binary`` (threshold on the
+        undistorted frame), ``3_birdseye``, ``4_birdseye_binary``, ``5_windows`` and ``6_final``.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import LaneFinder
+    >>> images = stage_images(cv2.imread("data/test_images/test3.jpg"), LaneFinder())
+    >>> list(images), images["5_windows"].shape
+    (['1_undistorted', '2_binary', '3_birdseye', '4_birdseye_binary', '5_windows', '6_final'], (300, 400, 3))
+    """
+    debug = LaneFinder(finder.config, camera=finder.camera, keep_debug=True)
     result = debug.process(frame)
     be = debug.birdseye((frame.shape[1], frame.shape[0]))
     undist = be.camera.undistort(frame)
@@ -25,7 +49,7 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
     cv2.polylines(warped, [np.round(be.dst_px).astype(np.int32)], True, (0, 0, 255), 2, cv2.LINE_AA)
     return {
         "1_undistorted": marked,
-        "2_binary": threshold(undist, finder.config.threshold) * 255,
+        "2_binary": threshold(undist, finder.config.threshold, be.xm_per_px) * 255,
         "3_birdseye": warped,
         "4_birdseye_binary": result.binary * 255,
         "5_windows": search_view(result.binary, result.search, result),
@@ -34,7 +58,33 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
 
 
 def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder) -> list[Path]:
-    """Write the stage images as ``folder/<stem>_<stage>.png``."""
+    """Write the stage images of one frame as ``folder/<stem>_<stage>.png``.
+
+    Parameters
+    ----------
+    folder : Path
+        Where to write (created if needed).
+    stem : str
+        Name prefix, usually the input's stem.
+    frame : (H, W, 3) uint8 ndarray
+        The original frame, BGR.
+    finder : LaneFinder
+        Gives the configuration and the camera.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Examples
+    --------
+    >>> import cv2, tempfile
+    >>> from lanefinder import LaneFinder
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     paths = write_stages(Path(d), "test3", cv2.imread("data/test_images/test3.jpg"), LaneFinder())
+    ...     [p.name for p in paths][:2]
+    ['test3_1_undistorted.png', 'test3_2_binary.png']
+    """
     out = []
     for name, img in stage_images(frame, finder).items():
         path = Path(folder) / f"{stem}_{name}.png"

@@ -1,13 +1,16 @@
-"""Per-frame telemetry: one row per frame, as CSV or JSON Lines.
+"""Per-frame telemetry: one row per frame, as CSV or JSON Lines, in one row format shared by the jobs.
 
-Fields (stable names; list-valued fields are JSON arrays, also inside CSV cells):
-frame, time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf,
-right_conf, radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m,
-left_fit_px, right_fit_px, h_samples, left_x, right_x.
+Fields (stable names; list-valued fields are JSON arrays, also inside CSV cells): frame,
+time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf, right_conf,
+radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m, left_fit_px,
+right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m.
 
-``left_x``/``right_x`` give each line's x in the original (distorted) frame at the rows
-``h_samples`` (400, 410, ... 710 for 720-row video: the TuSimple benchmark rows), or -2
-where the line is absent.  Missing numbers are empty (CSV) or null (JSONL).
+The per-line fields (``left_*``/``right_*``) come from each side's
+:class:`~lanefinder.lane.Line` through one table, :data:`LINE_FIELDS`.  ``left_x``/``right_x``
+give each line's x in the original (distorted) frame at the rows ``h_samples`` (400, 410, ...
+710 for 720-row video: the TuSimple benchmark rows), or -2 where the line is absent.  Missing
+numbers are empty (CSV) or null (JSONL).  The image job's ``results.jsonl`` rows hold the same
+fields after its own ``image``, ``output`` and ``ms``.
 """
 
 from __future__ import annotations
@@ -19,38 +22,97 @@ import math
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from .birdseye import BirdsEye
 from .errors import LaneFinderError
+from .geometry import poly_x
 from .io import publish
-from .pipeline import LaneResult
+from .lane import SIDES, LaneResult, Line
 
-FIELDS = ["frame", "time_s", "state", "left_found", "right_found", "left_inferred", "right_inferred",
-          "left_conf", "right_conf", "radius_m", "curvature_per_m", "offset_m", "width_m", "misses",
-          "left_fit_m", "right_fit_m", "left_fit_px", "right_fit_px", "h_samples", "left_x", "right_x"]
-LIST_FIELDS = {"left_fit_m", "right_fit_m", "left_fit_px", "right_fit_px", "h_samples", "left_x", "right_x"}
-BOOL_FIELDS = {"left_found", "right_found", "left_inferred", "right_inferred"}
+__all__ = [
+    "BOOL_FIELDS",
+    "FIELDS",
+    "LINE_FIELDS",
+    "LIST_FIELDS",
+    "TelemetryWriter",
+    "h_samples",
+    "lane_row",
+    "line_x_at_rows",
+    "make_row",
+    "read_telemetry",
+]
+
+
+def _paired(name: str) -> list[str]:
+    return [f"{side}_{name}" for side in SIDES]
+
+
+#: Per-line columns: the suffix of ``left_<name>``/``right_<name>``, in column order.
+LINE_FIELDS = ("found", "inferred", "conf", "fit_m", "fit_px", "x", "range_m")
+FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *_paired("conf"),
+          "radius_m", "curvature_per_m", "offset_m", "width_m", "misses", *_paired("fit_m"), *_paired("fit_px"),
+          "h_samples", *_paired("x"), *_paired("range_m")]
+LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x")}
+BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
 
 
 def h_samples(frame_height: int) -> list[int]:
-    """TuSimple rows 400, 410, ... 710 for 720-row frames, scaled for other heights."""
+    """Return the TuSimple benchmark rows for a frame height.
+
+    Parameters
+    ----------
+    frame_height : int
+        Frame height, pixels.
+
+    Returns
+    -------
+    list of int
+        Rows 400, 410, ... 710 for 720-row frames, scaled for other heights.
+
+    Examples
+    --------
+    >>> h_samples(720)[:3], h_samples(360)[:3]
+    ([400, 410, 420], [200, 205, 210])
+    """
     return [round(r * frame_height / 720) for r in range(400, 720, 10)]
 
 
 def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> list[float]:
-    """x (original frame pixels) of a bird's-eye line fit at frame ``rows``; -2 where absent.
+    """Map a bird's-eye line fit onto the original frame and sample its x at given rows.
 
     The fit is followed from the bird's-eye top down past its bottom edge (the road plane goes
     on towards the car), mapped through the exact inverse warp, and interpolated per row.
+
+    Parameters
+    ----------
+    fit_px : (3,) ndarray or None
+        (a, b, c) of the line in bird's-eye pixels; None for no line.
+    be : BirdsEye
+        The set-up.
+    rows : list of int
+        Rows of the original frame.
+
+    Returns
+    -------
+    list of float
+        x in original (distorted) frame pixels at each row, 0.1 px; -2 where the line is absent.
+
+    Examples
+    --------
+    >>> from lanefinder import Config, LaneFinder
+    >>> be = LaneFinder(Config()).birdseye((1280, 720))
+    >>> line_x_at_rows(np.array([0.0, 0.0, 125.0]), be, [460, 700])
+    [582.0, 240.3]
     """
     if fit_px is None:
         return [-2.0] * len(rows)
     h = be.size[1]
     w_f, h_f = be.frame_size
     y = np.linspace(0, 2.0 * h, 160)
-    x = (fit_px[0] * y + fit_px[1]) * y + fit_px[2]
+    x = poly_x(fit_px, y)
     und = be.to_undistorted(np.column_stack([x, y]))
     # Only where the undistorted point is (nearly) in view: the lens polynomial is not
     # monotonic far outside the calibrated field, and the road behind the camera is not seen.
@@ -83,25 +145,119 @@ def _coeffs(c: np.ndarray | None) -> list[float] | None:
     return None if c is None else [float(f"{v:.8g}") for v in c]
 
 
-def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye) -> dict:
-    """One telemetry row for a frame's result."""
+def _line_fields(line: Line, be: BirdsEye, rows: list[int]) -> dict[str, Any]:
+    """One line's telemetry values, keyed by :data:`LINE_FIELDS`."""
+    return {"found": line.found, "inferred": line.inferred, "conf": round(line.confidence, 4),
+            "fit_m": _coeffs(line.fit_m), "fit_px": _coeffs(line.fit_px),
+            "x": line_x_at_rows(line.fit_px, be, rows), "range_m": _num(line.range_m, 2)}
+
+
+def lane_row(r: LaneResult, be: BirdsEye) -> dict[str, Any]:
+    """Return the row fields of one result, without the frame's number and time.
+
+    The image job writes these after its own fields; :func:`make_row` puts the frame number
+    and time in front.
+
+    Parameters
+    ----------
+    r : LaneResult
+        The frame's result.
+    be : BirdsEye
+        The set-up it was found with (to map the lines back onto the frame).
+
+    Returns
+    -------
+    dict
+        The fields of :data:`FIELDS` but ``frame`` and ``time_s``, in that order; numbers
+        rounded, NaN as None.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import LaneFinder
+    >>> finder = LaneFinder()
+    >>> r = finder.process(cv2.imread("data/test_images/test3.jpg"))
+    >>> row = lane_row(r, finder.birdseye((1280, 720)))
+    >>> row["state"], row["left_found"], row["h_samples"][:3], len(row["left_x"])
+    ('re-detect', True, [400, 410, 420], 32)
+    """
     rows = h_samples(be.frame_size[1])
-    return {
-        "frame": index, "time_s": round(time_s, 4), "state": r.state,
-        "left_found": r.left_found, "right_found": r.right_found,
-        "left_inferred": r.left_inferred, "right_inferred": r.right_inferred,
-        "left_conf": round(r.left_conf, 4), "right_conf": round(r.right_conf, 4),
-        "radius_m": _num(r.radius_m, 2), "curvature_per_m": _num(r.curvature_per_m, 7),
-        "offset_m": _num(r.offset_m, 4), "width_m": _num(r.width_m, 4), "misses": r.misses,
-        "left_fit_m": _coeffs(r.left_fit_m), "right_fit_m": _coeffs(r.right_fit_m),
-        "left_fit_px": _coeffs(r.left_fit_px), "right_fit_px": _coeffs(r.right_fit_px),
-        "h_samples": rows, "left_x": line_x_at_rows(r.left_fit_px, be, rows),
-        "right_x": line_x_at_rows(r.right_fit_px, be, rows),
-    }
+    per_line = {side: _line_fields(line, be, rows) for side, line in zip(SIDES, r.lines, strict=True)}
+    out: dict[str, Any] = {"state": r.state}
+    for key in FIELDS[3:]:
+        side, _, name = key.partition("_")
+        if side in per_line and name in LINE_FIELDS:
+            out[key] = per_line[side][name]
+    out.update({"radius_m": _num(r.radius_m, 2), "curvature_per_m": _num(r.curvature_per_m, 7),
+                "offset_m": _num(r.offset_m, 4), "width_m": _num(r.width_m, 4), "misses": r.misses,
+                "h_samples": rows})
+    return {k: out[k] for k in FIELDS[2:]}
+
+
+def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye) -> dict[str, Any]:
+    """Return the telemetry row of one frame.
+
+    Parameters
+    ----------
+    index : int
+        Frame number in the video.
+    time_s : float
+        Time of the frame from the start of the video, seconds.
+    r : LaneResult
+        The frame's result.
+    be : BirdsEye
+        The set-up it was found with.
+
+    Returns
+    -------
+    dict
+        The fields of :data:`FIELDS`, in order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from lanefinder import LaneFinder
+    >>> finder = LaneFinder()
+    >>> r = finder.process(np.zeros((720, 1280, 3), np.uint8))
+    >>> row = make_row(7, 0.28, r, finder.birdseye((1280, 720)))
+    >>> row["frame"], row["state"], row["width_m"], row["left_x"][0]
+    (7, 'lost', None, -2.0)
+    """
+    return {"frame": index, "time_s": round(time_s, 4), **lane_row(r, be)}
 
 
 class TelemetryWriter:
-    """Writes rows to a hidden file beside ``path``, flushed per row; :meth:`close` moves it into place."""
+    """Write telemetry rows to a hidden file beside ``path``; :meth:`close` moves it into place.
+
+    Rows are flushed one by one; :meth:`discard` removes the hidden file instead, so an
+    existing file at ``path`` is replaced only by a complete one.
+
+    Parameters
+    ----------
+    path : str or Path
+        The telemetry file: ``.csv`` or ``.jsonl``.
+
+    Attributes
+    ----------
+    path : Path
+        Where the file goes.
+    rows : int
+        Rows written so far.
+
+    Raises
+    ------
+    LaneFinderError
+        For another suffix.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     with TelemetryWriter(f"{d}/t.jsonl") as w:
+    ...         w.write({"frame": 0, "state": "lost"})
+    ...     read_telemetry(f"{d}/t.jsonl")
+    [{'frame': 0, 'state': 'lost'}]
+    """
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -119,6 +275,13 @@ class TelemetryWriter:
         self.rows = 0
 
     def write(self, row: dict) -> None:
+        """Append one row.
+
+        Parameters
+        ----------
+        row : dict
+            Fields of :data:`FIELDS` (lists as lists, missing numbers as None).
+        """
         if self._csv:
             self._csv.writerow({k: (json.dumps(v) if k in LIST_FIELDS and v is not None else
                                     ("" if v is None else v)) for k, v in row.items()})
@@ -128,16 +291,26 @@ class TelemetryWriter:
         self.rows += 1
 
     def close(self) -> None:
+        """Finish the file and move it into place (once)."""
         if self._f.closed:
             return
         self._f.close()
         publish(self.tmp, self.path)
 
+    def discard(self) -> None:
+        """Drop the hidden file; whatever was at ``path`` stays as it was."""
+        if not self._f.closed:
+            self._f.close()
+        self.tmp.unlink(missing_ok=True)
+
     def __enter__(self) -> TelemetryWriter:
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.discard()
 
 
 def _parse_csv_value(key: str, v: str):
@@ -158,11 +331,36 @@ def _parse_csv_value(key: str, v: str):
 
 
 def read_telemetry(path: str | Path) -> list[dict]:
-    """Rows of a telemetry file (CSV or JSONL), with lists and numbers parsed."""
+    """Read the rows of a telemetry file (CSV or JSONL), with lists and numbers parsed.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by ``--telemetry``.
+
+    Returns
+    -------
+    list of dict
+        One dict per row; missing numbers are None.
+
+    Raises
+    ------
+    LaneFinderError
+        When the file is missing or is not telemetry.
+
+    Examples
+    --------
+    >>> rows = read_telemetry("data/clips/project_37-47s.csv")  # doctest: +SKIP
+    >>> rows[0]["state"]  # doctest: +SKIP
+    're-detect'
+    """
     p = Path(path)
     if not p.is_file():
         raise LaneFinderError(f"telemetry file not found: {p}")
-    text = p.read_text()
+    try:
+        text = p.read_text()
+    except (UnicodeDecodeError, OSError) as e:
+        raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
             return [{k: _parse_csv_value(k, v) for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]

@@ -12,9 +12,12 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from .config import BirdseyeConfig, ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
+from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
 
-_DEFAULT_XM = BirdseyeConfig().xm_per_px
+__all__ = ["STRATEGIES", "color", "ridge", "sobel_hls", "threshold", "ycrcb"]
+
+# The ridge window is at least this wide (pixels): narrower cannot hold a road level either side.
+_MIN_RIDGE_WINDOW_PX = 3
 
 
 def _in_range(channel: np.ndarray, lo_hi: tuple[float, float]) -> np.ndarray:
@@ -33,6 +36,25 @@ def sobel_hls(image: np.ndarray, cfg: SobelHlsConfig) -> np.ndarray:
     """S of HLS: Sobel x AND y, or magnitude AND direction, OR an S colour band.
 
     Right for well-lit roads with saturated (yellow) lines; weak in shadows and on pale concrete.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    cfg : SobelHlsConfig
+        The strategy's levels.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        1 on marking pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SobelHlsConfig
+    >>> img = np.full((20, 40, 3), 90, np.uint8); img[:, 18:22] = (40, 220, 240)
+    >>> sobel_hls(img, SobelHlsConfig())[5, 15:25]
+    array([0, 0, 1, 1, 1, 1, 1, 1, 0, 0], dtype=uint8)
     """
     s = cv2.cvtColor(image, cv2.COLOR_BGR2HLS)[..., 2]
     gx = cv2.Sobel(s, cv2.CV_32F, 1, 0, ksize=cfg.kernel)
@@ -49,6 +71,25 @@ def color(image: np.ndarray, cfg: ColorConfig) -> np.ndarray:
     """White from L of HLS or L of LUV, yellow from b of Lab.
 
     Right for clean, evenly lit roads; fixed levels fail in deep shade and in glare.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    cfg : ColorConfig
+        The strategy's levels.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        1 on marking pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> from lanefinder.config import ColorConfig
+    >>> img = np.full((20, 40, 3), 90, np.uint8); img[:, 18:22] = (40, 220, 240)
+    >>> color(img, ColorConfig())[5, 15:25]
+    array([0, 0, 0, 1, 1, 1, 1, 0, 0, 0], dtype=uint8)
     """
     hls_l = cv2.cvtColor(image, cv2.COLOR_BGR2HLS)[..., 1]
     luv_l = cv2.cvtColor(image, cv2.COLOR_BGR2LUV)[..., 0]
@@ -60,6 +101,25 @@ def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
     """Sobel x on Y of YCrCb, OR Y of YUV, OR R of RGB.
 
     Right for bright white lines on dark asphalt; gradients also fire on seams and shadow edges.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    cfg : YcrcbConfig
+        The strategy's levels.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        1 on marking pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> from lanefinder.config import YcrcbConfig
+    >>> img = np.full((20, 40, 3), 90, np.uint8); img[:, 18:22] = (40, 220, 240)
+    >>> ycrcb(img, YcrcbConfig())[5, 15:25]
+    array([0, 0, 1, 1, 1, 1, 1, 1, 0, 0], dtype=uint8)
     """
     y = cv2.cvtColor(image, cv2.COLOR_BGR2YCrCb)[..., 0]
     yuv_y = cv2.cvtColor(image, cv2.COLOR_BGR2YUV)[..., 0]
@@ -68,7 +128,7 @@ def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
     return (_in_range(gx, cfg.ycrcb_y_grad) | _in_range(yuv_y, cfg.yuv_y) | _in_range(r, cfg.rgb_r)).astype(np.uint8)
 
 
-def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float = _DEFAULT_XM) -> np.ndarray:
+def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
     """Markings as horizontal ridges of lightness (white and yellow) or of yellowness.
 
     Lightness is the green channel (close to luminance, high on white and yellow paint);
@@ -77,10 +137,31 @@ def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float = _DEFAULT_XM) -
     *both* sides.  A shadow edge or a pavement seam is a one-sided step: its top-hat is zero.
     The lightness test is relative to the local road level, so a line in shade passes and
     sunlit texture does not.  Right for the bird's-eye image of any road; the default.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    cfg : RidgeConfig
+        Window width (m) and contrast levels.
+    xm_per_px : float
+        Metres per pixel across the road: sizes the window.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        1 on marking pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> from lanefinder.config import RidgeConfig
+    >>> img = np.full((20, 40, 3), 90, np.uint8); img[:, 18:22] = 220
+    >>> ridge(img, RidgeConfig(), 0.025)[5, 15:25]
+    array([0, 0, 0, 1, 1, 1, 1, 0, 0, 0], dtype=uint8)
     """
     blue, light, red = cv2.split(image)
     yellow = cv2.subtract(red, blue)
-    width = max(3, round(cfg.width_m / xm_per_px)) | 1  # odd: a symmetric window keeps steps exact
+    width = max(_MIN_RIDGE_WINDOW_PX, round(cfg.width_m / xm_per_px)) | 1  # odd: a symmetric window keeps steps exact
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (width, 1))
     road = cv2.morphologyEx(light, cv2.MORPH_OPEN, kernel)
     top = cv2.subtract(light, road)
@@ -94,6 +175,7 @@ def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float = _DEFAULT_XM) -
     return cv2.bitwise_or(white, yel) // 255
 
 
+#: The strategies by name: (function, its config section).
 STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = {
     "ridge": (ridge, "ridge"),
     "sobel-hls": (sobel_hls, "sobel_hls"),
@@ -102,10 +184,29 @@ STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = 
 }
 
 
-def threshold(image: np.ndarray, cfg: ThresholdConfig, xm_per_px: float = _DEFAULT_XM) -> np.ndarray:
-    """Binary mask (uint8 0/1) of lane-marking pixels with the configured strategy.
+def threshold(image: np.ndarray, cfg: ThresholdConfig, xm_per_px: float) -> np.ndarray:
+    """Find lane-marking pixels with the configured strategy.
 
-    ``xm_per_px`` (metres per pixel across the road) sizes the ``ridge`` window.
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    cfg : ThresholdConfig
+        ``strategy`` and each strategy's levels.
+    xm_per_px : float
+        Metres per pixel across the road: sizes the ``ridge`` window.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        1 on marking pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> from lanefinder.config import ThresholdConfig
+    >>> img = np.full((20, 40, 3), 90, np.uint8); img[:, 18:22] = 220
+    >>> int(threshold(img, ThresholdConfig(), 0.025).sum())
+    80
     """
     func, section = STRATEGIES[cfg.strategy]
     if cfg.strategy == "ridge":

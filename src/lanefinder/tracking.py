@@ -1,273 +1,413 @@
-"""Tracking the lane across frames: sanity checks, confidence, smoothing, re-detection.
+"""Tracking the lane across frames, as one pure transition: ``step(track, measured, rules)``.
 
-Works on metre fits (see :mod:`lanefinder.geometry`): x = A*d^2 + B*d + C, d ahead.
-A :class:`LaneTracker` takes each frame's measured lines and returns the lane to show.
+A :class:`Track` is what the tracker remembers between frames (frozen); :func:`step` takes it
+and one frame's measured lines and returns the next track and a :class:`Verdict`: the two
+:class:`~lanefinder.lane.Line` records to show, the state and the reasons (named checks from
+:mod:`lanefinder.checks`) that rejected anything.  Works on metre fits
+x = A*d^2 + B*d + C, d ahead (see docs/conventions.md).
+
+The rules, in the order :func:`step` applies them:
+
+1. A measured line needs ``min_confidence`` and must not jump from its track (``<side>-jump``;
+   a line that was only inferred lately may come back elsewhere beside a line that is where
+   the track expects it).
+2. A measured pair must pass the lane checks (:func:`~lanefinder.checks.pair_problems`); a
+   failing pair keeps the line nearer its track (or the more confident one without a track).
+3. One line alone must be confident to place the lane, and holds it only so long.
+4. After the lane was lost, a weak start must be seen again in the same place (``confirming``).
+5. The lane implied by what is left must hold the car (``offset``).
+6. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
+   a rejected frame is a miss, and after ``max_misses`` the next frame is searched blind,
+   after ``lost_after`` the lane is lost.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .checks import check_confidence, check_jump, check_offset, check_one_line, lines_close, pair_problems
 from .config import TrackingConfig
-from .geometry import curvature_per_m, lane_width_m
+from .geometry import Scale, lane_width_m, m_to_px, poly_x
+from .lane import LOST, REDETECT, SIDES, TRACKING, Line
 
-TRACKING, REDETECT, LOST = "tracking", "re-detect", "lost"
+__all__ = ["Candidate", "Rules", "Track", "Verdict", "implied_lane", "step"]
 
-
-@dataclass(frozen=True, eq=False)
-class Measurement:
-    """One line as measured in a frame: metre fit and fit confidence (0..1)."""
-
-    coeffs_m: np.ndarray
-    confidence: float
+Fit = np.ndarray
+Pair = tuple[Line | None, Line | None]
 
 
-@dataclass(frozen=True, eq=False)
-class TrackedLane:
-    """The tracker's answer for one frame.
+@dataclass(frozen=True)
+class Rules:
+    """What :func:`step` needs besides the track: the limits and the view's geometry.
 
-    left_m/right_m: metre fits to show (None when lost).  *_found: measured and accepted this
-    frame; *_inferred: drawn from the other line and the tracked width.  checks: names of the
-    sanity checks that failed this frame.
-    """
+    Attributes
+    ----------
+    cfg : TrackingConfig
+        The limits of every check, and the smoothing.
+    lookahead_m : float
+        The farthest distance the fits are checked at (the bird's-eye top), metres.
+    default_width_m : float
+        Lane width assumed before one is tracked, metres (``search.lane_width_m``).
+    scale : Scale
+        The bird's-eye scale, to give the shown lines in pixels too.
 
-    left_m: np.ndarray | None
-    right_m: np.ndarray | None
-    left_found: bool
-    right_found: bool
-    left_inferred: bool
-    right_inferred: bool
-    left_conf: float
-    right_conf: float
-    state: str
-    misses: int
-    checks: tuple[str, ...] = ()
-
-    @property
-    def has_lane(self) -> bool:
-        return self.left_m is not None and self.right_m is not None
-
-
-def _x_at(c: np.ndarray, d: float) -> float:
-    return float((c[0] * d + c[1]) * d + c[2])
-
-
-@dataclass
-class LaneTracker:
-    """Stateful lane tracker; one per video.
-
-    ``lookahead_m`` is the farthest distance the fits are checked at (the bird's-eye top).
+    Examples
+    --------
+    >>> from lanefinder.config import TrackingConfig
+    >>> from lanefinder.geometry import Scale
+    >>> rules = Rules(TrackingConfig(), 29.6, 3.7, Scale(3.7 / 150, 0.0985, 300, 200.0))
+    >>> rules.lookahead_m
+    29.6
     """
 
     cfg: TrackingConfig
     lookahead_m: float
-    default_width_m: float = 3.7
-    left: np.ndarray | None = None
-    right: np.ndarray | None = None
+    default_width_m: float
+    scale: Scale
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """While there is no lane: a candidate lane waiting to be confirmed.
+
+    Attributes
+    ----------
+    fits_m : tuple of ndarray
+        Its left and right metre fits.
+    sightings : int
+        How often it was seen in the same place.
+    age : int
+        Frames since it was last seen.
+
+    Examples
+    --------
+    >>> Candidate((np.zeros(3), np.ones(3)), sightings=1, age=0).sightings
+    1
+    """
+
+    fits_m: tuple[Fit, Fit]
+    sightings: int
+    age: int = 0
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """What the tracker remembers between frames.  The start of a clip is ``Track()``.
+
+    Attributes
+    ----------
+    fits_m : tuple of (ndarray or None)
+        The tracked left and right metre fits; (None, None) without a lane.
+    width_m : float or None
+        The tracked lane width, metres.
+    misses : int
+        Consecutive frames without an accepted measurement.
+    guessed : tuple of int
+        Per line, frames in a row it has been inferred rather than measured: an inferred line
+        is a guess, so a measurement of it is not held to the jump limit.
+    since_both : int
+        Frames since both lines were last accepted together: one line alone holds the lane only
+        so long.
+    candidate : Candidate or None
+        While there is no lane, the last candidate lane.
+    was_lost : bool
+        A lane was shown and then lost since the clip began: a weak start must then be
+        confirmed (at the start of a clip, or for a single image, the first plausible lane is
+        taken).
+
+    Examples
+    --------
+    >>> Track().has_lane, Track().misses
+    (False, 0)
+    """
+
+    fits_m: tuple[Fit | None, Fit | None] = (None, None)
     width_m: float | None = None
     misses: int = 0
-    # Frames in a row each line has been inferred rather than measured: an inferred line is a
-    # guess, so a measurement of it is not held to the jump limit.
-    left_guessed: int = 0
-    right_guessed: int = 0
-    # Frames since both lines were last accepted together: one line alone holds the lane only
-    # so long, and starts (or restarts after "lost") a lane only when it is confident.
+    guessed: tuple[int, int] = (0, 0)
     since_both: int = 0
-    # While there is no lane: the last candidate lane (left, right, sightings, frames since).
-    candidate: tuple[np.ndarray, np.ndarray, int, int] | None = None
-    # A lane was shown and then lost since the clip began: a weak start must then be confirmed
-    # (at the start of a clip, or for a single image, the first plausible lane is taken).
+    candidate: Candidate | None = None
     was_lost: bool = False
-    stats: dict = field(default_factory=lambda: {"frames": 0, "tracked": 0, "redetect": 0, "lost": 0, "rejected": 0})
 
     @property
-    def needs_blind_search(self) -> bool:
-        """True when the next frame should be searched without a prior."""
-        return self.left is None or self.right is None or self.misses >= self.cfg.max_misses
+    def has_lane(self) -> bool:
+        """Whether a lane is being tracked."""
+        return self.fits_m[0] is not None and self.fits_m[1] is not None
 
-    def reset(self) -> None:
-        """Forget the track, as at the start of a clip."""
-        self.was_lost = False
-        self.left = self.right = None
-        self.width_m = None
-        self.misses = 0
-        self.left_guessed = self.right_guessed = 0
-        self.since_both = 0
-        self.candidate = None
+    def needs_blind_search(self, cfg: TrackingConfig) -> bool:
+        """Tell whether the next frame should be searched without a prior.
 
-    # -- checks -------------------------------------------------------------------------
-    def pair_problems(self, lm: np.ndarray, rm: np.ndarray) -> list[str]:
-        """The lane checks a measured pair (metre fits) fails: width, the car inside the lane,
-        parallel lines, matching curvatures and, while tracking, the change of width."""
-        c = self.cfg
-        problems = []
-        w_near = rm[2] - lm[2]
-        w_far = _x_at(rm, self.lookahead_m) - _x_at(lm, self.lookahead_m)
-        w_mid = _x_at(rm, self.lookahead_m / 2) - _x_at(lm, self.lookahead_m / 2)
-        width = lane_width_m(lm, rm)
-        if not c.min_width_m <= width <= c.max_width_m:
-            problems.append("width")
-        if not self._offset_ok(lm, rm):
-            problems.append("offset")
-        if max(abs(w_far - w_near), abs(w_mid - w_near)) > c.max_parallel_diff_m:
-            problems.append("parallel")
-        if abs(curvature_per_m(lm) - curvature_per_m(rm)) > c.max_curvature_diff:
-            problems.append("curvature")
-        tracked_width = self.width_m is not None and not self.needs_blind_search
-        if tracked_width and abs(width - self.width_m) > c.max_width_change_m:
-            problems.append("width-change")
-        return problems
+        Parameters
+        ----------
+        cfg : TrackingConfig
+            Holds ``max_misses``.
 
-    def _offset_ok(self, lm: np.ndarray, rm: np.ndarray) -> bool:
-        """The car (x = 0) is inside the lane, at most ``max_offset_m`` from its centre."""
-        return lm[2] < 0 < rm[2] and abs(lm[2] + rm[2]) / 2 <= self.cfg.max_offset_m
+        Returns
+        -------
+        bool
+            True without a lane, or after ``max_misses`` misses in a row.
+        """
+        return not self.has_lane or self.misses >= cfg.max_misses
 
-    def _close(self, a: np.ndarray, b: np.ndarray) -> bool:
-        """Two fits of one line within the jump limit: at the car, and three times it at the far end."""
-        lim = self.cfg.max_offset_jump_m
-        far = abs(_x_at(a, self.lookahead_m) - _x_at(b, self.lookahead_m))
-        return abs(a[2] - b[2]) <= lim and far <= 3 * lim
+    def tracked_width(self, cfg: TrackingConfig) -> float | None:
+        """Return the lane width a measurement is held to, or None when none holds.
 
-    def _jump_ok(self, meas: np.ndarray, tracked: np.ndarray | None) -> bool:
-        return tracked is None or self.misses >= self.cfg.max_misses or self._close(meas, tracked)
+        Parameters
+        ----------
+        cfg : TrackingConfig
+            Holds ``max_misses``.
 
-    # -- update -------------------------------------------------------------------------
-    def update(self, left: Measurement | None, right: Measurement | None, blind: bool) -> TrackedLane:
-        """Fold one frame's measurements into the track and return what to show."""
-        c = self.cfg
-        self.stats["frames"] += 1
-        checks: list[str] = []
-        ok_l = left is not None and left.confidence >= c.min_confidence
-        ok_r = right is not None and right.confidence >= c.min_confidence
-        if left is not None and not ok_l:
-            checks.append("left-confidence")
-        if right is not None and not ok_r:
-            checks.append("right-confidence")
-        # A line that was only guessed may come back away from the guess, but only beside a line
-        # that is where the track expects it: a lone line far from the track is not trusted.
-        near_l = ok_l and self._jump_ok(left.coeffs_m, self.left)
-        near_r = ok_r and self._jump_ok(right.coeffs_m, self.right)
-        if ok_l and not near_l and not (self.left_guessed and near_r):
-            ok_l = False
-            checks.append("left-jump")
-        if ok_r and not near_r and not (self.right_guessed and near_l):
-            ok_r = False
-            checks.append("right-jump")
-        conf_l = left.confidence if left is not None else 0.0
-        conf_r = right.confidence if right is not None else 0.0
-        if ok_l and ok_r:
-            problems = self.pair_problems(left.coeffs_m, right.coeffs_m)
-            if problems:
-                checks.extend(problems)
-                # Keep the line that agrees better with the track, else the more confident one.
-                if self.left is not None and self.right is not None and not self.needs_blind_search:
-                    dl = abs(left.coeffs_m[2] - self.left[2])
-                    dr = abs(right.coeffs_m[2] - self.right[2])
-                    drop_left = dl > dr
-                else:
-                    drop_left = conf_l < conf_r
-                if drop_left:
-                    ok_l = False
-                else:
-                    ok_r = False
-                conf_l *= 0.5
-                conf_r *= 0.5
+        Returns
+        -------
+        float or None
+            The tracked width (m) while tracking; None without a track or when re-detecting.
+        """
+        return None if self.width_m is None or self.needs_blind_search(cfg) else self.width_m
 
-        if ok_l != ok_r:
-            one_conf = conf_l if ok_l else conf_r
-            # Without a lane, or re-detecting after misses (when the jump limit no longer holds),
-            # a line alone must be confident to place the lane.
-            if self.needs_blind_search and one_conf < c.min_start_confidence:
-                checks.append("one-line-start")
-                return self._miss(checks, conf_l, conf_r, blind)
-            if self.since_both >= c.max_one_line_frames:
-                checks.append("one-line-too-long")
-                return self._miss(checks, conf_l, conf_r, blind)
-        if not ok_l and not ok_r:
-            return self._miss(checks, conf_l, conf_r, blind)
 
-        meas_l, meas_r = self.implied_lane(left.coeffs_m if ok_l else None, right.coeffs_m if ok_r else None)
-        if self.left is None or self.right is None:
-            strong = ok_l and ok_r and min(conf_l, conf_r) >= c.min_start_confidence
-            if self.was_lost and not strong and not self._confirmed(meas_l, meas_r, ok_l and ok_r):
+@dataclass(frozen=True, eq=False)
+class Verdict:
+    """The tracker's answer for one frame.
+
+    Attributes
+    ----------
+    left, right : Line
+        The lines to show (``fit_m``/``fit_px`` None when lost), with this frame's ``found``,
+        ``inferred`` and confidence.
+    state : str
+        ``tracking``, ``re-detect`` or ``lost``.
+    misses : int
+        Consecutive misses after this frame.
+    reasons : tuple of str
+        The named checks that rejected something this frame.
+
+    Examples
+    --------
+    >>> from lanefinder.lane import NO_LINE
+    >>> Verdict(NO_LINE, NO_LINE, "lost", 13, ()).has_lane
+    False
+    """
+
+    left: Line
+    right: Line
+    state: str
+    misses: int
+    reasons: tuple[str, ...] = ()
+
+    @property
+    def has_lane(self) -> bool:
+        """Whether a lane is shown."""
+        return self.left.fit_m is not None and self.right.fit_m is not None
+
+
+def implied_lane(left_m: Fit | None, right_m: Fit | None, width_m: float) -> tuple[Fit, Fit]:
+    """Complete a lane from one or two metre fits: a missing line is the other one shifted by the width.
+
+    Across the road, at the car, the other line is ``width_m`` away along the normal of the
+    seen line: sqrt(1 + slope^2) times that in x when the car is not parallel to the lane.
+
+    Parameters
+    ----------
+    left_m, right_m : (3,) ndarray or None
+        Metre fits; at least one must be given.
+    width_m : float
+        The lane width, metres.
+
+    Returns
+    -------
+    tuple of ndarray
+        The left and right metre fits.
+
+    Raises
+    ------
+    ValueError
+        When neither line is given.
+
+    Examples
+    --------
+    >>> left, right = implied_lane(np.array([0.0, 0.0, -1.8]), None, 3.7)
+    >>> right
+    array([0. , 0. , 1.9])
+    """
+    if left_m is None and right_m is None:
+        raise ValueError("implied_lane needs at least one line")
+    if left_m is None:
+        left_m = right_m - np.array([0.0, 0.0, width_m * float(np.hypot(1.0, right_m[1]))])
+    if right_m is None:
+        right_m = left_m + np.array([0.0, 0.0, width_m * float(np.hypot(1.0, left_m[1]))])
+    return left_m, right_m
+
+
+def _smooth(old: Fit, new: Fit, conf: float, rules: Rules) -> Fit:
+    """Exponential smoothing weighted by confidence, faster for large changes.
+
+    The gain rises with the size of the change at the far end relative to the jump limit, so a
+    sharp bend is followed without lag while small wobble is damped.
+    """
+    c = rules.cfg
+    far_move = abs(poly_x(new, rules.lookahead_m) - poly_x(old, rules.lookahead_m))
+    change = far_move / max(c.max_offset_jump_m, 1e-6)
+    gain = (1 - c.smoothing) * (c.smoothing_conf_floor + (1 - c.smoothing_conf_floor) * conf)
+    gain = float(np.clip(gain + c.smoothing_fast_gain * min(change, 1.0), c.smoothing_min_gain, 1.0))
+    return old + gain * (new - old)
+
+
+def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: tuple[float, float],
+           measured: Pair, rules: Rules, shown: bool) -> tuple[Line, Line]:
+    """The two :class:`Line` records of a verdict."""
+    out = []
+    for fit, ok, c, m in zip(fits, found, conf, measured, strict=True):
+        out.append(Line(
+            fit_px=None if fit is None else m_to_px(fit, rules.scale), fit_m=None if fit is None else fit.copy(),
+            confidence=c, found=ok, inferred=shown and not ok, n_pixels=m.n_pixels if m is not None else 0,
+            range_m=m.range_m if ok and m is not None else math.nan))
+    return out[0], out[1]
+
+
+def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured: Pair, blind: bool,
+          rules: Rules, keep_candidate: bool = False) -> tuple[Track, Verdict]:
+    """A frame whose measurements were not taken: hold the lane, or lose it."""
+    c = rules.cfg
+    misses, since_both, cand = track.misses + 1, track.since_both + 1, track.candidate
+    if not keep_candidate and cand is not None:
+        cand = replace(cand, age=cand.age + 1) if cand.age < c.start_frames else None
+    if not track.has_lane or misses > c.lost_after:
+        had_lane = track.fits_m[0] is not None or track.was_lost
+        lost = Track(misses=c.lost_after + 1, candidate=cand, was_lost=had_lane)
+        left, right = _lines((None, None), (False, False), conf, measured, rules, shown=False)
+        return lost, Verdict(left, right, LOST, lost.misses, tuple(reasons))
+    held = replace(track, misses=misses, since_both=since_both, candidate=cand)
+    left, right = _lines(track.fits_m, (False, False), conf, measured, rules, shown=True)
+    return held, Verdict(left, right, REDETECT if blind else TRACKING, misses, tuple(reasons))
+
+
+def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules) -> tuple[Candidate, bool]:
+    """Count sightings of the same candidate lane (a gap of up to ``start_frames`` frames is
+    allowed between them); a pair needs two sightings, one line ``start_frames``.
+    """
+    prev = track.candidate
+    same = prev is not None and all(
+        lines_close(f, p, rules.lookahead_m, rules.cfg) for f, p in zip(fits, prev.fits_m, strict=True))
+    count = prev.sightings + 1 if same and prev is not None else 1
+    cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0)
+    return cand, count >= (2 if pair else rules.cfg.start_frames)
+
+
+def _accept_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str]) -> tuple[list[bool], list[float]]:
+    """Rules 1-2: which measured lines are taken, and their confidences."""
+    c = rules.cfg
+    conf = [m.confidence if m is not None else 0.0 for m in measured]
+    ok = [m is not None and m.confidence >= c.min_confidence for m in measured]
+    for side, m in zip(SIDES, measured, strict=True):
+        if reason := check_confidence(side, None if m is None else m.confidence, c):
+            reasons.append(reason)
+    blind = track.needs_blind_search(c)
+    near = [ok[i] and (track.fits_m[i] is None or blind
+                       or lines_close(measured[i].fit_m, track.fits_m[i], rules.lookahead_m, c))  # type: ignore[union-attr]
+            for i in (0, 1)]
+    for i, side in enumerate(SIDES):
+        if ok[i] and (reason := check_jump(side, near[i], track.guessed[i], near[1 - i])):
+            ok[i] = False
+            reasons.append(reason)
+    if ok[0] and ok[1]:
+        lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
+        problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c)
+        if problems:
+            reasons.extend(problems)
+            # Keep the line that agrees better with the track, else the more confident one.
+            if track.has_lane and not blind:
+                drop = 0 if abs(lm[2] - track.fits_m[0][2]) > abs(rm[2] - track.fits_m[1][2]) else 1
+            else:
+                drop = 0 if conf[0] < conf[1] else 1
+            ok[drop] = False
+            conf = [v * c.rejected_pair_confidence for v in conf]
+    return ok, conf
+
+
+def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track, Verdict]:
+    """Fold one frame's measured lines into the track.
+
+    Parameters
+    ----------
+    track : Track
+        The track before this frame (``Track()`` at the start of a clip).
+    measured : tuple of (Line or None)
+        This frame's measured left and right lines (``fit_m`` and ``confidence`` are used;
+        ``n_pixels`` and ``range_m`` are passed on), None where nothing was measured.
+    blind : bool
+        The frame was searched without a prior (reported as the ``re-detect`` state).
+    rules : Rules
+        The limits and the view's geometry.
+
+    Returns
+    -------
+    track : Track
+        The track after this frame.
+    verdict : Verdict
+        The lines to show, the state and the reasons.
+
+    Examples
+    --------
+    >>> from lanefinder.config import TrackingConfig
+    >>> from lanefinder.geometry import Scale
+    >>> from lanefinder.lane import Line
+    >>> rules = Rules(TrackingConfig(), 29.6, 3.7, Scale(3.7 / 150, 0.0985, 300, 200.0))
+    >>> seen = lambda c: Line(fit_px=None, fit_m=np.array([0.0, 0.0, c]), confidence=0.9, found=True, inferred=False)
+    >>> track, verdict = step(Track(), (seen(-1.8), seen(1.9)), True, rules)
+    >>> verdict.state, verdict.left.found, verdict.right.found, track.width_m
+    ('re-detect', True, True, 3.7)
+    >>> track, verdict = step(track, (seen(-1.8), None), False, rules)
+    >>> verdict.right.inferred, round(float(verdict.right.fit_m[2]), 2)
+    (True, 1.9)
+    """
+    c = rules.cfg
+    reasons: list[str] = []
+    ok, conf = _accept_lines(track, measured, rules, reasons)
+    conf_t = (conf[0], conf[1])
+    re_detecting = track.needs_blind_search(c)
+    if ok[0] != ok[1]:
+        reason = check_one_line(conf[0] if ok[0] else conf[1], re_detecting, track.since_both, c)
+        if reason:
+            reasons.append(reason)
+            return _miss(track, reasons, conf_t, measured, blind, rules)
+    if not ok[0] and not ok[1]:
+        return _miss(track, reasons, conf_t, measured, blind, rules)
+
+    both = ok[0] and ok[1]
+    width = track.width_m if track.width_m is not None else rules.default_width_m
+    fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
+                        measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
+    if not track.has_lane:
+        strong = both and min(conf) >= c.min_start_confidence
+        if track.was_lost and not strong:
+            cand, confirmed = _confirm(track, fits, both, rules)
+            if not confirmed:
                 # A weak start must be seen again in the same place before it is shown.
-                checks.append("confirming")
-                return self._miss(checks, conf_l, conf_r, blind, keep_candidate=True)
-        self.candidate = None
-        self.since_both = 0 if ok_l and ok_r else self.since_both + 1
-        if ok_l and ok_r:
-            w_meas = lane_width_m(meas_l, meas_r)
-            self.width_m = w_meas if self.width_m is None else self.width_m + 0.1 * (w_meas - self.width_m)
-        if not self._offset_ok(meas_l, meas_r):
-            # One line seen, and the lane it implies would not hold the car: not this lane.
-            checks.append("offset")
-            return self._miss(checks, conf_l, conf_r, blind)
-        fresh = self.left is None or self.right is None or self.needs_blind_search
+                reasons.append("confirming")
+                return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules,
+                             keep_candidate=True)
+    width_m = track.width_m
+    if both:
+        w_meas = lane_width_m(*fits)
+        width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
+    track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m)
+    if reason := check_offset(*fits, c):
+        # The lane these lines make would not hold the car: not this lane.
+        reasons.append(reason)
+        return _miss(track, reasons, conf_t, measured, blind, rules)
+    fresh = re_detecting
+    new_fits = []
+    for i in (0, 1):
         # A line seen again after being guessed snaps to the measurement.
-        snap_l = fresh or (ok_l and self.left_guessed > 0)
-        snap_r = fresh or (ok_r and self.right_guessed > 0)
-        self.left = meas_l.copy() if snap_l else self._smooth(self.left, meas_l, conf_l if ok_l else 0.5 * conf_r)
-        self.right = meas_r.copy() if snap_r else self._smooth(self.right, meas_r, conf_r if ok_r else 0.5 * conf_l)
-        self.misses = 0
-        self.left_guessed = 0 if ok_l else self.left_guessed + 1
-        self.right_guessed = 0 if ok_r else self.right_guessed + 1
-        self.stats["tracked"] += 1
-        if blind:
-            self.stats["redetect"] += 1
-        return TrackedLane(self.left.copy(), self.right.copy(), ok_l, ok_r, not ok_l, not ok_r,
-                           conf_l, conf_r, REDETECT if blind else TRACKING, 0, tuple(checks))
-
-    def implied_lane(self, left: np.ndarray | None, right: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Both lines from one or two metre fits: a missing line is the other one shifted by the
-        tracked lane width (the default width before any is tracked)."""
-        width = self.width_m if self.width_m is not None else self.default_width_m
-        if left is None and right is None:
-            raise ValueError("implied_lane needs at least one line")
-        # Across the road, at the car, the other line is ``width`` away along the normal of the
-        # seen line: sqrt(1 + slope^2) times that in x when the car is not parallel to the lane.
-        if left is None:
-            left = right - np.array([0.0, 0.0, width * float(np.hypot(1.0, right[1]))])
-        if right is None:
-            right = left + np.array([0.0, 0.0, width * float(np.hypot(1.0, left[1]))])
-        return left, right
-
-    def _smooth(self, old: np.ndarray, new: np.ndarray, conf: float) -> np.ndarray:
-        # Exponential smoothing weighted by confidence.  The gain rises with the size of the
-        # change relative to the jump limit, so a sharp bend is followed without lag while
-        # small wobble is damped.
-        base = self.cfg.smoothing
-        far_move = abs(_x_at(new, self.lookahead_m) - _x_at(old, self.lookahead_m))
-        change = far_move / max(self.cfg.max_offset_jump_m, 1e-6)
-        gain = float(np.clip((1 - base) * (0.4 + 0.6 * conf) + 0.3 * min(change, 1.0), 0.05, 1.0))
-        return old + gain * (new - old)
-
-    def _confirmed(self, left_m: np.ndarray, right_m: np.ndarray, pair: bool) -> bool:
-        """Count sightings of the same candidate lane (a gap of up to ``start_frames`` frames is
-        allowed between them); a pair needs two sightings, one line ``start_frames``."""
-        prev = self.candidate
-        same = prev is not None and self._close(left_m, prev[0]) and self._close(right_m, prev[1])
-        count = prev[2] + 1 if same else 1
-        self.candidate = (left_m.copy(), right_m.copy(), count, 0)
-        return count >= (2 if pair else self.cfg.start_frames)
-
-    def _miss(self, checks: list[str], conf_l: float, conf_r: float, blind: bool,
-              keep_candidate: bool = False) -> TrackedLane:
-        self.misses += 1
-        self.since_both += 1
-        self.stats["rejected"] += 1
-        if not keep_candidate and self.candidate is not None:
-            lm, rm, count, age = self.candidate
-            self.candidate = (lm, rm, count, age + 1) if age < self.cfg.start_frames else None
-        if self.left is None or self.right is None or self.misses > self.cfg.lost_after:
-            candidate, had_lane = self.candidate, self.left is not None or self.was_lost
-            self.reset()
-            self.candidate, self.was_lost = candidate, had_lane
-            self.misses = self.cfg.lost_after + 1
-            self.stats["lost"] += 1
-            return TrackedLane(None, None, False, False, False, False, conf_l, conf_r, LOST, self.misses, tuple(checks))
-        if blind:
-            self.stats["redetect"] += 1
-        return TrackedLane(self.left.copy(), self.right.copy(), False, False, True, True, conf_l, conf_r,
-                           REDETECT if blind else TRACKING, self.misses, tuple(checks))
+        if fresh or (ok[i] and track.guessed[i] > 0):
+            new_fits.append(fits[i].copy())
+        else:
+            weight = conf[i] if ok[i] else c.inferred_weight * conf[1 - i]
+            new_fits.append(_smooth(track.fits_m[i], fits[i], weight, rules))  # type: ignore[arg-type]
+    track = replace(track, fits_m=(new_fits[0], new_fits[1]), misses=0,
+                    guessed=tuple(0 if ok[i] else track.guessed[i] + 1 for i in (0, 1)))  # type: ignore[arg-type]
+    left, right = _lines(track.fits_m, (ok[0], ok[1]), conf_t, measured, rules, shown=True)
+    return track, Verdict(left, right, REDETECT if blind else TRACKING, 0, tuple(reasons))

@@ -1,0 +1,238 @@
+"""Measuring a frame's lines: the search-retry policy, the fits and the checks made before tracking.
+
+:func:`measure` is the one function the pipeline calls between the threshold and the tracker:
+
+1. Search: around the tracked lane, or blind (histogram and windows) when the track needs it.
+2. A line that comes out weak around the track is searched for blind in the same frame; per
+   line, the more confident search wins.
+3. Still weak: lines that cross the view at an angle (:func:`~lanefinder.search.heading_search`);
+   that pair is taken only when both its lines are confident and together more confident, and,
+   without a track to hold it to, when it passes the lane checks.
+4. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
+   (``tracking.yellow_line_side``), and no solid marking down the middle of the lane.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .checks import check_line_inside, is_yellow, pair_problems, yellow_side
+from .config import Config
+from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, px_to_m
+from .lane import Line
+from .search import Pixels, SearchParams, SearchResult, blind_search, heading_search, search_around, search_params
+from .tracking import Rules, Track, implied_lane
+
+__all__ = ["Measured", "Measurer", "measure"]
+
+Fits = tuple[LineFit | None, LineFit | None]
+
+
+@dataclass(frozen=True)
+class Measurer:
+    """Everything :func:`measure` needs for one bird's-eye set-up, in pixels.
+
+    Attributes
+    ----------
+    config : Config
+        The configuration (``tracking`` and ``threshold.ridge.yellow_min`` are read here).
+    search : SearchParams
+        Search settings in bird's-eye pixels.
+    fit : FitParams
+        Fit settings in bird's-eye pixels.
+    rules : Rules
+        The tracker's rules (its lane checks gate the angled search's pair).
+
+    Examples
+    --------
+    >>> from lanefinder.config import Config
+    >>> from lanefinder.geometry import Scale
+    >>> m = Measurer.build(Config(), Scale(3.7 / 150, 0.0985, 300, 200.0))
+    >>> round(m.search.margin_px, 1), m.rules.lookahead_m
+    (24.3, 29.55)
+    """
+
+    config: Config
+    search: SearchParams
+    fit: FitParams
+    rules: Rules
+
+    @property
+    def scale(self) -> Scale:
+        """The bird's-eye scale."""
+        return self.rules.scale
+
+    @classmethod
+    def build(cls, config: Config, scale: Scale) -> Measurer:
+        """Turn a configuration's metre settings into pixels for a bird's-eye scale.
+
+        Parameters
+        ----------
+        config : Config
+            The configuration.
+        scale : Scale
+            The bird's-eye scale.
+
+        Returns
+        -------
+        Measurer
+            The settings for that scale.
+        """
+        sp = search_params(config.search, scale.xm_per_px, scale.ym_per_px)
+        fp = fit_params(config.fit, scale.xm_per_px, scale.ym_per_px, config.search.marking_width_m)
+        rules = Rules(config.tracking, scale.height_px * scale.ym_per_px, config.search.lane_width_m, scale)
+        return cls(config, sp, fp, rules)
+
+
+@dataclass(frozen=True, eq=False)
+class Measured:
+    """One frame's measurements, ready for the tracker.
+
+    Attributes
+    ----------
+    lines : tuple of (Line or None)
+        The measured left and right lines (``found`` True, fit in pixels and metres, confidence,
+        pixel count, range), None where no line was measured or a frame check dropped it.
+    search : SearchResult
+        The search whose pixels were fitted.
+    blind : bool
+        The frame was searched without a prior.
+    reasons : tuple of str
+        The frame checks that dropped or moved a line.
+
+    Examples
+    --------
+    >>> from lanefinder.config import Config
+    >>> from lanefinder.geometry import Scale
+    >>> from lanefinder.tracking import Track
+    >>> m = Measurer.build(Config(), Scale(3.7 / 150, 0.0985, 300, 200.0))
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> out = measure(b, None, Track(), m)
+    >>> out.blind, [round(float(line.fit_m[2]), 2) for line in out.lines]
+    (True, [-1.85, 1.85])
+    """
+
+    lines: tuple[Line | None, Line | None]
+    search: SearchResult
+    blind: bool
+    reasons: tuple[str, ...] = ()
+
+
+def _conf(fit: LineFit | None) -> float:
+    return -1.0 if fit is None else fit.confidence
+
+
+def _weak(fits: Fits, m: Measurer) -> bool:
+    return any(f is None or f.confidence < m.config.tracking.min_confidence for f in fits)
+
+
+def _fit(found: SearchResult, m: Measurer) -> Fits:
+    """Robust fits of a search's left and right line pixels."""
+    return fit_lane((found.left.x, found.left.y), (found.right.x, found.right.y), m.scale.height_px, m.fit)
+
+
+def _keep_better(found: SearchResult, fits: Fits, again: SearchResult, m: Measurer) -> tuple[SearchResult, Fits]:
+    """Per line, the more confident of two searches' fits (and the search result to match)."""
+    again_fits = _fit(again, m)
+    use_l, use_r = _conf(again_fits[0]) > _conf(fits[0]), _conf(again_fits[1]) > _conf(fits[1])
+    if not (use_l or use_r):
+        return found, fits
+    if use_l and use_r:
+        return again, again_fits
+    merged = SearchResult(again.left if use_l else found.left, again.right if use_r else found.right,
+                          f"{found.method}+{again.method}", again.histogram, again.bases_px, found.band_px,
+                          {**found.extra, **again.extra})
+    return merged, _fit(merged, m)
+
+
+def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) -> tuple[SearchResult, Fits, bool]:
+    """Search and fit with the retry policy (steps 1-3 of the module docstring)."""
+    sp, scale, cfg = m.search, m.scale, m.config.tracking
+    blind = track.needs_blind_search(cfg)
+    if blind:
+        found = blind_search(binary, sp, scale.car_x_px, pixels)
+    else:
+        left, right = (m_to_px(f, scale) for f in track.fits_m)  # type: ignore[arg-type]
+        found = search_around(binary, left, right, sp.around_margin_px, pixels)
+    fits = _fit(found, m)
+    if not blind and _weak(fits, m):
+        found, fits = _keep_better(found, fits, blind_search(binary, sp, scale.car_x_px, pixels), m)
+    if sp.shears_px and _weak(fits, m):
+        slant = heading_search(binary, sp, scale.car_x_px, pixels)
+        slant_fits = _fit(slant, m)
+        c_new = _conf(slant_fits[0]) + _conf(slant_fits[1])
+        c_old = max(_conf(fits[0]), 0.0) + max(_conf(fits[1]), 0.0)
+        take = not _weak(slant_fits, m) and c_new > c_old
+        if take and blind:
+            lm, rm = (px_to_m(f.coeffs_px, scale) for f in slant_fits)  # type: ignore[union-attr]
+            take = not pair_problems(lm, rm, track.tracked_width(cfg), m.rules.lookahead_m, cfg)
+        if take:
+            found, fits = slant, slant_fits
+    return found, fits, blind
+
+
+def _line(fit: LineFit | None, ys: np.ndarray, scale: Scale) -> Line | None:
+    """A measured line's record; its range is how far ahead its farthest pixel lies."""
+    if fit is None:
+        return None
+    reach_m = (scale.height_px - float(ys.min())) * scale.ym_per_px if ys.size else math.nan
+    return Line(fit_px=fit.coeffs_px, fit_m=px_to_m(fit.coeffs_px, scale), confidence=fit.confidence,
+                found=True, inferred=False, n_pixels=fit.n_pixels, range_m=reach_m)
+
+
+def measure(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer,
+            pixels: Pixels | None = None) -> Measured:
+    """Measure a frame's lines on its bird's-eye binary, ready for :func:`~lanefinder.tracking.step`.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    view : (H, W, 3) uint8 ndarray or None
+        The bird's-eye colour image (BGR); without it, the yellow-side check is not made.
+    track : Track
+        The track before this frame (it decides where to search).
+    m : Measurer
+        The settings in pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    Measured
+        The measured lines, the search, whether it was blind, and the frame checks' reasons.
+
+    Examples
+    --------
+    >>> from lanefinder.config import Config
+    >>> from lanefinder.geometry import Scale
+    >>> from lanefinder.tracking import Track
+    >>> m = Measurer.build(Config(), Scale(3.7 / 150, 0.0985, 300, 200.0))
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 197:203] = 1; b[:, 272:278] = 1
+    >>> measure(b, None, Track(), m).reasons
+    ('line-inside-lane',)
+    """
+    px = pixels if pixels is not None else Pixels.of(binary)
+    found, fits, blind = find_lines(binary, px, track, m)
+    lines = (_line(fits[0], found.left.y, m.scale), _line(fits[1], found.right.y, m.scale))
+    reasons: list[str] = []
+    cfg = m.config.tracking
+    if view is not None and cfg.yellow_line_side != "either":
+        yellow = tuple(line is not None and is_yellow(view, pix, cfg, m.config.threshold.ridge.yellow_min)
+                       for line, pix in zip(lines, (found.left, found.right), strict=True))
+        x_at_car = tuple(None if line is None else float(line.fit_m[2]) for line in lines)  # type: ignore[index]
+        sides, reason = yellow_side(x_at_car, yellow, cfg)  # type: ignore[arg-type]
+        if reason:
+            lines = tuple(None if i is None else lines[i] for i in sides)  # type: ignore[assignment]
+            reasons.append(reason)
+    if lines[0] is not None or lines[1] is not None:
+        width = track.width_m if track.width_m is not None else m.rules.default_width_m
+        lane = implied_lane(*(None if line is None else line.fit_m for line in lines), width)
+        if reason := check_line_inside(px, *lane, m.scale, cfg):
+            # A solid marking runs down the middle of the lane these lines would make: not our lane.
+            lines = (None, None)
+            reasons.append(reason)
+    return Measured(lines, found, blind, tuple(reasons))

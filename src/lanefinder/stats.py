@@ -1,0 +1,97 @@
+"""Figures of a whole run, from its telemetry rows: lane shares, width, offset jumps, curves.
+
+These are what ``make check-videos`` prints per video, and what the tests hold the full
+videos to.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["curves", "video_stats"]
+
+
+def curves(rows: list[dict], min_s: float = 2.0, straight_m: float = 3000.0) -> list[dict[str, Any]]:
+    """Find the stretches of a run that bend one way, with their median radius.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Telemetry rows (``time_s``, ``curvature_per_m``, ``radius_m``).
+    min_s : float
+        Shortest stretch, seconds.
+    straight_m : float
+        A radius at or above this (m) counts as straight.
+
+    Returns
+    -------
+    list of dict
+        Per stretch: ``side`` ("left"/"right"), ``from_s``, ``to_s`` (s) and
+        ``median_radius_m`` (m).
+
+    Examples
+    --------
+    >>> rows = [{"time_s": t / 10, "curvature_per_m": -1e-3, "radius_m": 1000.0} for t in range(30)]
+    >>> curves(rows)
+    [{'side': 'left', 'from_s': 0.0, 'to_s': 2.9, 'median_radius_m': 1000.0}]
+    """
+    out, cur = [], None
+    for r in rows:
+        k, rad = r.get("curvature_per_m"), r.get("radius_m")
+        side = None if k is None or rad is None or rad >= straight_m else ("right" if k > 0 else "left")
+        if cur and side == cur["side"]:
+            cur["rows"].append(r)
+            continue
+        if cur and cur["rows"][-1]["time_s"] - cur["rows"][0]["time_s"] >= min_s:
+            out.append(cur)
+        cur = {"side": side, "rows": [r]} if side else None
+    if cur and cur["rows"][-1]["time_s"] - cur["rows"][0]["time_s"] >= min_s:
+        out.append(cur)
+    return [{"side": c["side"], "from_s": c["rows"][0]["time_s"], "to_s": c["rows"][-1]["time_s"],
+             "median_radius_m": float(np.median([r["radius_m"] for r in c["rows"]]))} for c in out]
+
+
+def video_stats(rows: list[dict]) -> dict[str, Any]:
+    """Summarise a run's telemetry rows.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Telemetry rows, as :func:`lanefinder.telemetry.read_telemetry` gives them.
+
+    Returns
+    -------
+    dict
+        ``frames``; ``tracked_pct``, ``both_seen_pct`` and ``lost_pct`` (% of frames with a
+        lane, with both lines measured, lost); ``width_mean_m`` and ``width_std_m`` (m);
+        ``max_offset_jump_m`` (largest frame-to-frame change of the offset, m); ``curves``
+        (see :func:`curves`).
+
+    Examples
+    --------
+    >>> rows = [{"state": "tracking", "left_found": True, "right_found": True, "width_m": 3.7,
+    ...          "offset_m": 0.1 * i, "time_s": i / 25, "curvature_per_m": 0.0, "radius_m": 10000.0}
+    ...         for i in range(4)]
+    >>> s = video_stats(rows)
+    >>> s["tracked_pct"], s["width_mean_m"], round(s["max_offset_jump_m"], 2)
+    (100.0, 3.7, 0.1)
+    """
+    n = len(rows)
+    shown = sum(1 for r in rows if r["state"] != "lost")
+    seen_both = sum(1 for r in rows if r["left_found"] and r["right_found"])
+    lost = n - shown
+    width = np.array([r["width_m"] for r in rows if r.get("width_m") is not None])
+    off = np.array([np.nan if r.get("offset_m") is None else r["offset_m"] for r in rows])
+    jumps = np.abs(np.diff(off))
+    return {
+        "frames": n,
+        "tracked_pct": 100.0 * shown / n if n else 0.0,
+        "both_seen_pct": 100.0 * seen_both / n if n else 0.0,
+        "lost_pct": 100.0 * lost / n if n else 0.0,
+        "width_mean_m": float(width.mean()) if width.size else float("nan"),
+        "width_std_m": float(width.std()) if width.size else float("nan"),
+        "max_offset_jump_m": float(np.nanmax(jumps)) if np.isfinite(jumps).any() else float("nan"),
+        "curves": curves(rows),
+    }
