@@ -95,7 +95,7 @@ def main() -> int:
     cv2.setNumThreads(1)
     finder = LaneFinder(cfg)
     be = finder.birdseye((imgs[0].shape[1], imgs[0].shape[0]))
-    sp, fp = finder.search_px, finder.fit_px
+    sp, fp = finder.measurer.search, finder.measurer.fit
     warped = [be.warp(im) for im in imgs]
     binaries = [threshold(w, cfg.threshold, be.xm_per_px) for w in warped]
     results = []
@@ -109,7 +109,7 @@ def main() -> int:
         px = Pixels.of(binaries[i])
         r = results[i - 1] if i else None
         if r is not None and r.lane_found:
-            return search_around(binaries[i], r.left_fit_px, r.right_fit_px, sp.around_margin_px, px)
+            return search_around(binaries[i], r.left.fit_px, r.right.fit_px, sp.around_margin_px, px)
         return blind_search(binaries[i], sp, be.car_x_px, px)
 
     found = [search(i) for i in range(n)]

@@ -13,6 +13,9 @@ import pytest
 
 from conftest import CAL, TEST_IMAGES
 
+# Every test here runs the command in a subprocess (0.2-2 s each).
+pytestmark = pytest.mark.slow
+
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "lanefinder", *args], capture_output=True, text=True, cwd=cwd,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lanefinder.config import Config, ThresholdConfig
+from lanefinder.config import BirdseyeConfig, Config, ThresholdConfig
 from lanefinder.pipeline import LaneFinder
 from lanefinder.threshold import threshold
 
@@ -16,6 +16,9 @@ def warped(test_images):
     return {k: be.warp(v) for k, v in test_images.items()}
 
 
+XM = BirdseyeConfig().xm_per_px  # metres per bird's-eye pixel across the road, default set-up
+
+
 def _near_lines(mask: np.ndarray, xs=(125, 275), half: int = 10) -> float:
     near = sum(int(mask[:, x - half:x + half].sum()) for x in xs)
     return near / max(1, int(mask.sum()))
@@ -24,7 +27,7 @@ def _near_lines(mask: np.ndarray, xs=(125, 275), half: int = 10) -> float:
 @pytest.mark.parametrize("strategy", ["ridge", "sobel-hls", "color", "ycrcb"])
 def test_every_strategy_finds_the_straight_lines(strategy, warped):
     cfg = ThresholdConfig(strategy=strategy)
-    mask = threshold(warped["straight_lines1"], cfg)
+    mask = threshold(warped["straight_lines1"], cfg, XM)
     assert mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 1}
     # Both line columns hold markings over much of the height.
     for x in (125, 275):
@@ -33,7 +36,7 @@ def test_every_strategy_finds_the_straight_lines(strategy, warped):
 
 
 def test_ridge_is_mostly_lines(warped):
-    mask = threshold(warped["straight_lines1"], ThresholdConfig())
+    mask = threshold(warped["straight_lines1"], ThresholdConfig(), XM)
     assert _near_lines(mask) > 0.8  # measured 0.9
 
 
@@ -42,7 +45,7 @@ def test_ridge_ignores_shadow_edges_and_seams():
     road[:, 100:110] = 200  # a white line
     road[:, 250:] = 140  # a pavement seam: a one-sided step
     road[100:, :] = (road[100:, :] * 0.35).astype(np.uint8)  # a hard shadow over the lower half
-    mask = threshold(road, ThresholdConfig())
+    mask = threshold(road, ThresholdConfig(), XM)
     assert mask[:, 100:110].mean() > 0.95  # the line, in sun and in shade
     assert mask[:, 120:400].sum() == 0  # no seam, no shadow edge
 
@@ -50,5 +53,5 @@ def test_ridge_ignores_shadow_edges_and_seams():
 def test_ridge_finds_yellow_on_pale_concrete():
     road = np.full((100, 300, 3), (170, 180, 185), np.uint8)  # BGR pale concrete
     road[:, 150:158] = (40, 190, 220)  # yellow paint, little brighter than the concrete
-    mask = threshold(road, ThresholdConfig())
+    mask = threshold(road, ThresholdConfig(), XM)
     assert mask[:, 150:158].mean() > 0.9 and mask[:, :140].sum() == 0

@@ -18,6 +18,9 @@ from lanefinder.videojob import process_video
 
 from conftest import CLIPS
 
+# Every test here decodes and encodes video, most in a subprocess.
+pytestmark = pytest.mark.slow
+
 PROJECT = CLIPS / "project_37-47s.mp4"
 CHALLENGE = CLIPS / "challenge_3-7s.mp4"
 

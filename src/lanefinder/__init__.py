@@ -3,7 +3,8 @@
 from .camera import CameraModel, calibrate, load_camera, save_camera
 from .config import Config, load_config
 from .errors import LaneFinderError
-from .pipeline import LaneFinder, LaneResult
+from .lane import LaneResult, Line
+from .pipeline import LaneFinder
 
 __version__ = "0.1.0"
 
@@ -13,6 +14,7 @@ __all__ = [
     "LaneFinder",
     "LaneFinderError",
     "LaneResult",
+    "Line",
     "calibrate",
     "load_camera",
     "load_config",

@@ -1,4 +1,9 @@
-"""The ``lanefinder`` command: a thin layer over the Python API."""
+"""The ``lanefinder`` command: a thin layer over the Python API that parses and prints.
+
+Every command's work lives in the library (the jobs :mod:`lanefinder.imagejob` and
+:mod:`lanefinder.videojob`, and the stage modules); errors in what the user gives end in one
+``lanefinder: error:`` line and exit status 2.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,8 @@ import click
 
 from . import __version__
 from .errors import LaneFinderError
+
+__all__ = ["main"]
 
 
 def _fail(msg: str) -> None:
@@ -34,7 +41,14 @@ class _Group(click.Group):
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="lanefinder")
 def main() -> None:
-    """Find the lane on a car's forward camera: calibrate, process images and videos."""
+    """Find the lane on a car's forward camera: calibrate, process images and videos.
+
+    Examples
+    --------
+    >>> from click.testing import CliRunner
+    >>> CliRunner().invoke(main, ["--version"]).output.strip()
+    'lanefinder, version 0.1.0'
+    """
 
 
 def _config(path: str | None):
@@ -147,7 +161,8 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 # -- video -------------------------------------------------------------------------------
 @main.command()
 @click.argument("src", type=click.Path())
-@click.option("-o", "--output", required=True, type=click.Path(), help="Annotated video to write (.mp4, H.264).")
+@click.option("-o", "--output", type=click.Path(),
+              help="Annotated video to write (.mp4, H.264); leave out for telemetry only.")
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
 @click.option("--start", "start_s", type=float, default=0.0, show_default=True, help="Start, seconds.")
 @click.option("--end", "end_s", type=float, default=None, help="End, seconds (default: the end).")
@@ -158,17 +173,19 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
               help="x264 preset (default from config: superfast).")
 @click.option("--crf", type=click.IntRange(0, 51), help="x264 quality, lower is better (default from config: 23).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def video(src: str, output: str, config_path: str | None, start_s: float, end_s: float | None,
+def video(src: str, output: str | None, config_path: str | None, start_s: float, end_s: float | None,
           telemetry: str | None, debug: bool, sheet: str | None, preset: str | None, crf: int | None,
           quiet: bool) -> None:
-    """Find the lane in every frame of the video SRC; write an annotated H.264 MP4."""
+    """Find the lane in every frame of the video SRC; write an annotated H.264 MP4 and/or telemetry."""
     from .videojob import process_video
 
     cfg = _config(config_path)
     if preset or crf is not None:
         v = cfg.video.model_copy(update={k: val for k, val in (("preset", preset), ("crf", crf)) if val is not None})
         cfg = cfg.model_copy(update={"video": v})
-    if Path(output).suffix.lower() != ".mp4":
+    if output is None and telemetry is None:
+        raise LaneFinderError("give -o OUT.mp4 for an annotated video, --telemetry FILE for the numbers, or both")
+    if output is not None and Path(output).suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output must be an .mp4 file: {output}")
     summary = process_video(src, output, cfg, start_s=start_s, end_s=end_s, telemetry=telemetry, debug=debug,
                             contact_sheet_path=sheet, progress=not quiet)

@@ -15,6 +15,29 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .errors import LaneFinderError
 
+__all__ = [
+    "LANE_SPAN_PX",
+    "LANE_WIDTH_M",
+    "VIEW_SIZE_PX",
+    "BirdseyeConfig",
+    "CameraConfig",
+    "ColorConfig",
+    "Config",
+    "FitConfig",
+    "RenderConfig",
+    "RidgeConfig",
+    "SearchConfig",
+    "SobelHlsConfig",
+    "ThresholdConfig",
+    "TrackingConfig",
+    "VideoConfig",
+    "YcrcbConfig",
+    "config_from_dict",
+    "default_dst",
+    "dump_config",
+    "load_config",
+]
+
 Point = tuple[float, float]
 PositiveInt = Annotated[int, Field(gt=0)]
 PositiveFloat = Annotated[float, Field(gt=0)]
@@ -29,8 +52,9 @@ VIEW_SIZE_PX = (400, 300)
 LANE_SPAN_PX = 150.0
 
 
-def default_dst(size: tuple[int, int] = VIEW_SIZE_PX, lane_px: float = LANE_SPAN_PX) -> tuple[Point, Point, Point, Point]:
-    """The bird's-eye rectangle of a lane ``lane_px`` wide, centred in a view of ``size``.
+def default_dst(size: tuple[int, int] = VIEW_SIZE_PX,
+                lane_px: float = LANE_SPAN_PX) -> tuple[Point, Point, Point, Point]:
+    """Return the bird's-eye rectangle of a lane ``lane_px`` wide, centred in a view of ``size``.
 
     Parameters
     ----------
@@ -59,15 +83,51 @@ class _Section(BaseModel):
 
 
 class CameraConfig(_Section):
-    """Which lens model to undo: "udacity" (built in), "none", or a camera file path."""
+    """Which lens model to undo.
+
+    Attributes
+    ----------
+    model : str
+        ``udacity`` (the built-in calibration), ``none`` (an ideal pinhole), or the path of a
+        camera file (JSON from ``lanefinder calibrate``, or OpenCV's YAML/XML), relative to the
+        config file that names it.
+
+    Examples
+    --------
+    >>> CameraConfig().model
+    'udacity'
+    """
 
     model: str = "udacity"
 
 
 class BirdseyeConfig(_Section):
-    """Source trapezoid (undistorted pixels of a ``reference_size`` frame) and its bird's-eye rectangle.
+    """The bird's-eye set-up: a road trapezoid in the frame and the rectangle it maps to.
 
-    Defaults: tuned on straight_lines1/2 (see docs/birdseye.md and scripts/tune_birdseye.py).
+    Defaults: tuned on straight_lines1/2 (see the README's "The bird's-eye view and its scale"
+    and scripts/tune_birdseye.py).
+
+    Attributes
+    ----------
+    reference_size : tuple of int
+        (width, height) of the frames ``src`` is given for, pixels; frames of the same aspect
+        ratio at another size scale it.
+    src : 4 tuples of float
+        The trapezoid in undistorted frame pixels: top-left, top-right, bottom-right, bottom-left.
+    size : tuple of int
+        (width, height) of the bird's-eye view, pixels.
+    dst : 4 tuples of float
+        Where ``src`` goes in the view, pixels, in the same order.
+    xm_per_px : float
+        Metres per view pixel across the road.
+    ym_per_px : float
+        Metres per view pixel along the road.
+
+    Examples
+    --------
+    >>> b = BirdseyeConfig()
+    >>> b.size, round(b.xm_per_px, 5)
+    ((400, 300), 0.02467)
     """
 
     reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
@@ -89,7 +149,24 @@ class BirdseyeConfig(_Section):
 
 
 class SobelHlsConfig(_Section):
-    """``sobel-hls``: Sobel on the S channel of HLS plus an S colour threshold."""
+    """``sobel-hls``: Sobel on the S channel of HLS plus an S colour threshold.
+
+    Attributes
+    ----------
+    kernel : int
+        Sobel kernel size (odd, 3-15).
+    x_thresh, y_thresh, mag_thresh : tuple of int
+        Bands (0-255) of the scaled x, y and magnitude gradients.
+    dir_thresh : tuple of float
+        Band of the gradient direction, radians.
+    s_thresh : tuple of int
+        Band of S itself.
+
+    Examples
+    --------
+    >>> SobelHlsConfig().s_thresh
+    (150, 255)
+    """
 
     kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
     x_thresh: tuple[Byte, Byte] = (20, 255)
@@ -100,7 +177,18 @@ class SobelHlsConfig(_Section):
 
 
 class ColorConfig(_Section):
-    """``color``: L of HLS and L of LUV for white, b of Lab for yellow."""
+    """``color``: L of HLS and L of LUV for white, b of Lab for yellow.
+
+    Attributes
+    ----------
+    hls_l, luv_l, lab_b : tuple of int
+        Bands (0-255) of each channel.
+
+    Examples
+    --------
+    >>> ColorConfig().lab_b
+    (150, 255)
+    """
 
     hls_l: tuple[Byte, Byte] = (210, 255)
     luv_l: tuple[Byte, Byte] = (215, 255)
@@ -108,7 +196,20 @@ class ColorConfig(_Section):
 
 
 class YcrcbConfig(_Section):
-    """``ycrcb``: Sobel x on Y of YCrCb, Y of YUV and R of RGB, OR-combined."""
+    """``ycrcb``: Sobel x on Y of YCrCb, Y of YUV and R of RGB, OR-combined.
+
+    Attributes
+    ----------
+    kernel : int
+        Sobel kernel size (odd, 3-15).
+    ycrcb_y_grad, yuv_y, rgb_r : tuple of int
+        Bands (0-255) of the scaled gradient and of the two channels.
+
+    Examples
+    --------
+    >>> YcrcbConfig().rgb_r
+    (215, 255)
+    """
 
     kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
     ycrcb_y_grad: tuple[Byte, Byte] = (30, 255)
@@ -123,6 +224,24 @@ class RidgeConfig(_Section):
     ``width_m`` wide; a pixel is a marking when its top-hat is above ``min_contrast`` and above
     ``rel_contrast`` times the local road level, so shadows (which scale brightness) and
     pavement seams (one-sided steps) do not pass.
+
+    Attributes
+    ----------
+    width_m : float
+        Width of the top-hat window across the road, metres.
+    min_contrast : int
+        Least lightness above the road on both sides (0-255).
+    rel_contrast : float
+        Least lightness above the road as a fraction of the road's own lightness.
+    yellow_min_contrast : int
+        Least yellowness (red - blue) above the road on both sides.
+    yellow_min : int
+        Least yellowness of a yellow marking pixel.
+
+    Examples
+    --------
+    >>> RidgeConfig().width_m
+    0.4
     """
 
     width_m: PositiveFloat = 0.4
@@ -133,6 +252,21 @@ class RidgeConfig(_Section):
 
 
 class ThresholdConfig(_Section):
+    """Which thresholding strategy finds marking pixels, and each strategy's levels.
+
+    Attributes
+    ----------
+    strategy : str
+        ``ridge`` (default), ``sobel-hls``, ``color`` or ``ycrcb``.
+    ridge, sobel_hls, color, ycrcb : section
+        Each strategy's settings.
+
+    Examples
+    --------
+    >>> ThresholdConfig().strategy
+    'ridge'
+    """
+
     strategy: Literal["ridge", "sobel-hls", "color", "ycrcb"] = "ridge"
     ridge: RidgeConfig = RidgeConfig()
     sobel_hls: SobelHlsConfig = SobelHlsConfig()
@@ -141,8 +275,59 @@ class ThresholdConfig(_Section):
 
 
 class SearchConfig(_Section):
-    """Finding line pixels in the bird's-eye binary.  Sizes are in metres on the road and turn
-    into pixels through the bird's-eye scale, so they hold for any set-up.
+    """Finding line pixels in the bird's-eye binary.
+
+    Sizes are in metres on the road and turn into pixels through the bird's-eye scale, so they
+    hold for any set-up.  The comments beside the fields in the source say how they combine.
+
+    Attributes
+    ----------
+    method : str
+        The blind search: ``windows`` (sliding windows) or ``segments`` (a histogram per segment).
+    n_windows : int
+        Windows (or segments) up the view.
+    margin_m : float
+        Half-width of a window, metres.
+    min_window_marking_m : float
+        Length of marking a window needs to count as found, metres (through ``marking_width_m``).
+    histogram_fraction : float
+        Lower fraction of the view whose columns are summed for the line bases.
+    around_margin_m : float
+        Half-width of the band searched around the tracked lines, metres.
+    lane_width_m : float
+        Expected lane width, metres (pairs line bases; the width assumed before one is tracked).
+    width_tolerance : float
+        Relative tolerance on ``lane_width_m`` when pairing line bases.
+    marking_width_m : float
+        Width of a lane marking, metres: turns marking lengths into pixel counts.
+    max_heading_deg, heading_step_deg : float
+        The angled search: headings off the car's axis tried, and their step, degrees (step 0:
+        off).
+    heading_band_m : float
+        Half-width of the band the angled search keeps around each window's ridge, metres.
+    upper_histogram_weight : float
+        Weight of the rows above ``histogram_fraction`` in the base histogram.
+    peak_smoothing_m : float
+        Width of the box filter on the base histogram, metres.
+    max_peaks : int
+        Highest histogram peaks paired into line bases.
+    base_min_fraction : float
+        Least peak height, as a fraction of a window's pixels.
+    centre_preference : float
+        Score a pair of bases loses per lane width its centre is off the car.
+    momentum : float
+        Share of the last window move kept for the next (the rest follows the latest drift).
+    empty_window_decay : float
+        Factor on the window move past an empty window.
+    segment_reach, segment_max_shift, segment_band : float
+        Segment search: histogram reach, largest peak shift, and band kept, in window margins.
+    segment_min_fraction : float
+        Segment search: pixels a segment needs, as a fraction of a window's.
+
+    Examples
+    --------
+    >>> SearchConfig().margin_m
+    0.6
     """
 
     method: Literal["windows", "segments"] = "windows"
@@ -186,7 +371,38 @@ class SearchConfig(_Section):
 
 
 class FitConfig(_Section):
-    """Robust second-order fit x = a*y^2 + b*y + c (bird's-eye pixels); sizes in metres."""
+    """Robust second-order fit x = a*y^2 + b*y + c (bird's-eye pixels); sizes in metres.
+
+    Attributes
+    ----------
+    robust_iterations : int
+        Huber reweighting rounds.
+    huber_m : float
+        Huber threshold on the residual, metres.
+    min_marking_m : float
+        Length of marking a line needs to be fitted at all, metres.
+    full_support_m : float
+        Length of marking for full support (confidence), metres.
+    residual_scale_m : float
+        Residual at which the fit quality (confidence) halves, metres.
+    min_span_fraction : float
+        Pixels spanning less of the view's height get a straight (first-order) fit.
+    parallel : float
+        How far the weaker line's shape moves towards the shared lane shape (0 off, 1 all).
+    full_span_fraction : float
+        Span of the view a line must cover for full confidence.
+    max_points : int
+        A line with more pixels is fitted on an even subsample of this many.
+    max_radius_m : float
+        Cap on the reported radius, metres (a straight road reports it).
+    straight_radius_m : float
+        Radius above which the road is reported straight, metres.
+
+    Examples
+    --------
+    >>> FitConfig().max_radius_m
+    10000.0
+    """
 
     robust_iterations: Annotated[int, Field(ge=0, le=10)] = 2
     huber_m: PositiveFloat = 0.06
@@ -204,7 +420,58 @@ class FitConfig(_Section):
 
 
 class TrackingConfig(_Section):
-    """Across frames: sanity checks, smoothing, re-detection."""
+    """Across frames: the lane checks, smoothing, re-detection (see :mod:`lanefinder.checks`).
+
+    Attributes
+    ----------
+    min_width_m, max_width_m : float
+        Plausible lane width, metres.
+    max_width_change_m : float
+        Largest change from the tracked width, metres.
+    max_parallel_diff_m : float
+        Largest change of the width along the view, metres.
+    max_curvature_diff : float
+        Largest difference of the two lines' curvatures, 1/m.
+    max_offset_jump_m : float
+        Largest move of a line from its track at the car, metres.
+    far_jump_factor : float
+        The jump limit at the far end, as a multiple of ``max_offset_jump_m``.
+    max_offset_m : float
+        Farthest the car may be from the lane centre, metres.
+    max_misses : int
+        Misses after which the next frame is searched blind.
+    lost_after : int
+        Misses after which the lane is lost.
+    max_one_line_frames : int
+        Frames one line alone may hold the lane.
+    min_start_confidence : float
+        Confidence a line needs to start (or re-place) a lane alone.
+    start_frames : int
+        Sightings a lone line needs to start a lane after one was lost.
+    max_interior_fill, interior_strip_m, interior_excess, interior_min_pixels, interior_min_rows
+        The no-marking-down-the-middle check (see the comment in the source).
+    smoothing, smoothing_conf_floor, smoothing_fast_gain, smoothing_min_gain : float
+        The smoothing gain of the metre fits (see the comment in the source).
+    width_smoothing : float
+        Gain of the tracked lane width per frame.
+    rejected_pair_confidence : float
+        Factor on both confidences of a pair that fails the lane checks.
+    inferred_weight : float
+        An inferred line is smoothed with this times the confidence of the line it comes from.
+    min_confidence : float
+        Confidence a measured line needs to be used.
+    yellow_line_side : str
+        Where a yellow marking may bound the lane: ``left``, ``right`` or ``either``.
+    yellow_fraction : float
+        Share of yellow pixels that makes a line yellow.
+    yellow_saturation : float
+        Least (red - blue) / red of a yellow pixel.
+
+    Examples
+    --------
+    >>> TrackingConfig().max_misses
+    5
+    """
 
     min_width_m: PositiveFloat = 2.5
     # 3.7 m lanes measure up to 4.7 m for a frame when the car pitches on a bump (the flat-road
@@ -261,6 +528,25 @@ class TrackingConfig(_Section):
 
 
 class RenderConfig(_Section):
+    """How the lane is drawn on the frame.
+
+    Attributes
+    ----------
+    lane_color, left_color, right_color : tuple of int
+        BGR colours of the lane fill and the two lines.
+    alpha : float
+        Opacity of the lane fill.
+    line_thickness : int
+        Line thickness, pixels.
+    hud : bool
+        Draw the radius/offset/width box.
+
+    Examples
+    --------
+    >>> RenderConfig().line_thickness
+    6
+    """
+
     lane_color: tuple[Byte, Byte, Byte] = (0, 200, 0)
     left_color: tuple[Byte, Byte, Byte] = (0, 0, 255)
     right_color: tuple[Byte, Byte, Byte] = (255, 80, 0)
@@ -270,13 +556,50 @@ class RenderConfig(_Section):
 
 
 class VideoConfig(_Section):
+    """How the annotated video is encoded and decoded.
+
+    Attributes
+    ----------
+    preset : str
+        x264 preset.
+    crf : int
+        x264 quality, 0-51 (lower is better).
+    threads : int
+        FFmpeg threads (0: FFmpeg's choice).
+
+    Examples
+    --------
+    >>> VideoConfig().preset
+    'superfast'
+    """
+
     preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow"] = "superfast"
     crf: Annotated[int, Field(ge=0, le=51)] = 23
     threads: Annotated[int, Field(ge=0, le=64)] = 0
 
 
 class Config(_Section):
-    """All tunables of lanefinder."""
+    """All tunables of lanefinder, one validated section per stage.
+
+    Unknown keys and bad values are errors that name the key (see :func:`load_config`).
+
+    Attributes
+    ----------
+    camera : CameraConfig
+    birdseye : BirdseyeConfig
+    threshold : ThresholdConfig
+    search : SearchConfig
+    fit : FitConfig
+    tracking : TrackingConfig
+    render : RenderConfig
+    video : VideoConfig
+
+    Examples
+    --------
+    >>> cfg = Config.model_validate({"search": {"n_windows": 9}})
+    >>> cfg.search.n_windows, cfg.tracking.max_misses
+    (9, 5)
+    """
 
     camera: CameraConfig = CameraConfig()
     birdseye: BirdseyeConfig = BirdseyeConfig()
@@ -300,6 +623,32 @@ def _format_error(e: ValidationError, source: str) -> str:
 
 
 def config_from_dict(data: dict, source: str = "") -> Config:
+    """Validate a configuration given as nested dicts.
+
+    Parameters
+    ----------
+    data : dict
+        Sections and keys; what is left out keeps its default.
+    source : str
+        Where the data came from, for the error message.
+
+    Returns
+    -------
+    Config
+        The validated configuration.
+
+    Raises
+    ------
+    LaneFinderError
+        Naming each bad or unknown key.
+
+    Examples
+    --------
+    >>> config_from_dict({"tracking": {"max_misses": 0}}, "my.toml")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: invalid config my.toml: tracking.max_misses: Input should be greater than 0
+    """
     try:
         return Config.model_validate(data)
     except ValidationError as e:
@@ -307,13 +656,42 @@ def config_from_dict(data: dict, source: str = "") -> Config:
 
 
 def load_config(path: str | Path | None) -> Config:
-    """Read a TOML, YAML or JSON config; None gives the defaults."""
+    """Read a TOML, YAML or JSON configuration file.
+
+    A camera file it names is taken relative to the config file.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The file (``.toml``, ``.yaml``/``.yml`` or ``.json``); None gives the defaults.
+
+    Returns
+    -------
+    Config
+        The validated configuration.
+
+    Raises
+    ------
+    LaneFinderError
+        When the file is missing, unreadable, not valid in its format, or has bad values.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     _ = Path(d, "my.toml").write_text("search.n_windows = 9")
+    ...     load_config(Path(d, "my.toml")).search.n_windows
+    9
+    """
     if path is None:
         return Config()
     p = Path(path)
     if not p.is_file():
         raise LaneFinderError(f"config file not found: {p}")
-    text = p.read_text()
+    try:
+        text = p.read_text()
+    except (UnicodeDecodeError, OSError) as e:
+        raise LaneFinderError(f"config {p} cannot be read as text: {e}".splitlines()[0]) from None
     suffix = p.suffix.lower()
     try:
         if suffix == ".toml":
@@ -346,6 +724,25 @@ def load_config(path: str | Path | None) -> Config:
 
 
 def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml") -> str:
+    """Write a configuration out in full, as :func:`load_config` reads it.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration.
+    fmt : {"toml", "yaml", "json"}
+        The format.
+
+    Returns
+    -------
+    str
+        The text.
+
+    Examples
+    --------
+    >>> print(dump_config(Config()).splitlines()[1])
+    [camera]
+    """
     data = cfg.model_dump(mode="json")
     if fmt == "toml":
         import tomli_w

@@ -22,14 +22,45 @@ import numpy as np
 
 from .config import FitConfig
 
+__all__ = [
+    "FitParams",
+    "LaneGeometry",
+    "LineFit",
+    "Scale",
+    "curvature_per_m",
+    "fit_lane",
+    "fit_line",
+    "fit_params",
+    "lane_geometry",
+    "lane_width_m",
+    "m_to_px",
+    "poly_x",
+    "px_to_m",
+    "radius_from_curvature",
+]
+
 
 @dataclass(frozen=True, eq=False)
 class LineFit:
     """One fitted line.
 
-    coeffs_px: (a, b, c) of x = a*y^2 + b*y + c, bird's-eye pixels.
-    n_pixels: pixels used; residual_px: robust RMS residual; span: fraction of the image
-    height the pixels cover; confidence: 0..1.
+    Attributes
+    ----------
+    coeffs_px : (3,) ndarray
+        (a, b, c) of x = a*y^2 + b*y + c, bird's-eye pixels.
+    n_pixels : int
+        Pixels fitted.
+    residual_px : float
+        Robust RMS residual, pixels.
+    span : float
+        Fraction of the view's height the pixels cover.
+    confidence : float
+        0..1: support, span and residual together.
+
+    Examples
+    --------
+    >>> LineFit(np.zeros(3), 500, 1.2, 0.8, 0.7).confidence
+    0.7
     """
 
     coeffs_px: np.ndarray
@@ -67,7 +98,23 @@ def poly_x(coeffs: np.ndarray, y: np.ndarray | float) -> np.ndarray | float:
 
 @dataclass(frozen=True)
 class Scale:
-    """How bird's-eye pixels map to metres: see module docstring."""
+    """How bird's-eye pixels map to metres (see the module docstring and docs/conventions.md).
+
+    Attributes
+    ----------
+    xm_per_px, ym_per_px : float
+        Metres per pixel across and along the road.
+    height_px : int
+        Height of the view, pixels (its bottom row is d = 0).
+    car_x_px : float
+        The car's column (the road point right below the camera), pixels.
+
+    Examples
+    --------
+    >>> s = Scale(xm_per_px=3.7 / 150, ym_per_px=0.1, height_px=300, car_x_px=200.0)
+    >>> s.height_px * s.ym_per_px
+    30.0
+    """
 
     xm_per_px: float
     ym_per_px: float
@@ -77,7 +124,35 @@ class Scale:
 
 @dataclass(frozen=True)
 class FitParams:
-    """Fit settings in bird's-eye pixels (see :func:`fit_params`)."""
+    """Fit settings in bird's-eye pixels, from :class:`~lanefinder.config.FitConfig`.
+
+    Attributes
+    ----------
+    min_pixels : int
+        Fewest pixels to fit a line.
+    huber_px : float
+        Huber threshold, pixels.
+    support_pixels : float
+        Pixels for full support.
+    residual_scale_px : float
+        Residual at which the quality halves, pixels.
+    robust_iterations : int
+        Reweighting rounds.
+    min_span_fraction : float
+        Below this span, a straight fit.
+    parallel : float
+        Pull of the weaker line's shape towards the shared one.
+    full_span_fraction : float
+        Span for full confidence.
+    max_points : int
+        Subsample bound.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> fit_params(FitConfig(), 3.7 / 150, 0.0985).min_pixels
+    31
+    """
 
     min_pixels: int
     huber_px: float
@@ -91,7 +166,28 @@ class FitParams:
 
 
 def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
-    """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
+    """Turn the metre settings of a fit config into pixels for a bird's-eye scale.
+
+    Parameters
+    ----------
+    cfg : FitConfig
+        The settings, metres.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+    marking_width_m : float
+        Width of a marking, metres: turns marking lengths into pixel counts.
+
+    Returns
+    -------
+    FitParams
+        The settings in pixels.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> round(fit_params(FitConfig(), 3.7 / 150, 0.0985).huber_px, 2)
+    2.43
+    """
     per_m = marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
     return FitParams(
         min_pixels=max(6, round(cfg.min_marking_m * per_m)),
@@ -107,8 +203,9 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
 
 
 def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
-    """Weighted least-squares polynomial x(y) via the normal equations, on y centred and
-    scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c.
+    """Fit a weighted least-squares polynomial x(y) via the normal equations.
+
+    y is centred and scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c.
     """
     y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
     t = (y - y0) / ys
@@ -127,9 +224,31 @@ def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.n
 
 
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
-    """Robust (Huber IRLS) second-order fit of a line's pixels; None if too few.
+    """Fit a line's pixels robustly (Huber IRLS, second order).
 
     Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        The line's pixels, bird's-eye.
+    height_px : int
+        Height of the view, pixels.
+    cfg : FitParams
+        Settings in pixels.
+
+    Returns
+    -------
+    LineFit or None
+        The fit with its confidence; None with fewer than ``min_pixels`` pixels.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> y = np.arange(300.0); x = 0.001 * (y - 300) ** 2 + 125
+    >>> fit = fit_line(x, y, 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    >>> fit.coeffs_px.round(3).tolist(), round(fit.confidence, 2)
+    ([0.001, -0.6, 215.0], 1.0)
     """
     n = int(x.size)
     if n < cfg.min_pixels:
@@ -164,6 +283,29 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
     the squared support; its position c is refit as the median of the residual.  A
     short dashed line then borrows the shape of a long solid one instead of extrapolating
     its own, and the solid one keeps its own.
+
+    Parameters
+    ----------
+    left, right : tuple of ndarray
+        Each line's pixels (x, y), bird's-eye.
+    height_px : int
+        Height of the view, pixels.
+    cfg : FitParams
+        Settings in pixels.
+
+    Returns
+    -------
+    tuple of (LineFit or None)
+        The left and right fits.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> y = np.arange(300.0)
+    >>> fl, fr = fit_lane((np.full(300, 125.0), y), (np.full(300, 275.0), y), 300,
+    ...                   fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    >>> fl.coeffs_px.round(3).tolist(), fr.coeffs_px.round(3).tolist()
+    ([0.0, 0.0, 125.0], [0.0, 0.0, 275.0])
     """
     fl = fit_line(left[0], left[1], height_px, cfg)
     fr = fit_line(right[0], right[1], height_px, cfg)
@@ -186,14 +328,52 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
 
 
 def px_to_m(coeffs_px: np.ndarray, s: Scale) -> np.ndarray:
-    """(a, b, c) in bird's-eye pixels -> (A, B, C) in metres: x_m(d), d ahead of the bottom row."""
+    """Convert a pixel fit (a, b, c) to a metre fit (A, B, C): x_m(d), d ahead of the bottom row.
+
+    Parameters
+    ----------
+    coeffs_px : (3,) ndarray
+        (a, b, c) of x = a*y^2 + b*y + c, bird's-eye pixels.
+    s : Scale
+        The bird's-eye scale.
+
+    Returns
+    -------
+    (3,) ndarray
+        (A, B, C) of x = A*d^2 + B*d + C, metres, x right of the car.
+
+    Examples
+    --------
+    >>> s = Scale(xm_per_px=3.7 / 150, ym_per_px=0.1, height_px=300, car_x_px=200.0)
+    >>> px_to_m(np.array([0.0, 0.0, 125.0]), s).round(3).tolist()
+    [0.0, -0.0, -1.85]
+    """
     a, b, c = coeffs_px
     h, xm, ym = s.height_px, s.xm_per_px, s.ym_per_px
     return np.array([xm * a / ym**2, -xm * (2 * a * h + b) / ym, xm * (a * h * h + b * h + c - s.car_x_px)])
 
 
 def m_to_px(coeffs_m: np.ndarray, s: Scale) -> np.ndarray:
-    """Inverse of :func:`px_to_m`."""
+    """Convert a metre fit (A, B, C) back to a pixel fit (a, b, c); the inverse of :func:`px_to_m`.
+
+    Parameters
+    ----------
+    coeffs_m : (3,) ndarray
+        (A, B, C) of x = A*d^2 + B*d + C, metres.
+    s : Scale
+        The bird's-eye scale.
+
+    Returns
+    -------
+    (3,) ndarray
+        (a, b, c), bird's-eye pixels.
+
+    Examples
+    --------
+    >>> s = Scale(xm_per_px=3.7 / 150, ym_per_px=0.1, height_px=300, car_x_px=200.0)
+    >>> m_to_px(np.array([0.0, 0.0, -1.85]), s).round(3).tolist()
+    [0.0, 0.0, 125.0]
+    """
     big_a, big_b, big_c = coeffs_m
     h, xm, ym = s.height_px, s.xm_per_px, s.ym_per_px
     a = big_a * ym**2 / xm
@@ -203,28 +383,100 @@ def m_to_px(coeffs_m: np.ndarray, s: Scale) -> np.ndarray:
 
 
 def curvature_per_m(coeffs_m: np.ndarray, d_m: float = 0.0) -> float:
-    """Signed curvature (1/m) of x(d) at distance d: positive bends right."""
+    """Compute the signed curvature of a metre fit: positive bends right.
+
+    Parameters
+    ----------
+    coeffs_m : (3,) ndarray
+        (A, B, C), metres.
+    d_m : float
+        Distance ahead of the bird's-eye bottom row, metres.
+
+    Returns
+    -------
+    float
+        Curvature at ``d_m``, 1/m.
+
+    Examples
+    --------
+    >>> curvature_per_m(np.array([5e-4, 0.0, 0.0]))
+    0.001
+    """
     big_a, big_b, _ = coeffs_m
     slope = 2 * big_a * d_m + big_b
     return float(2 * big_a / (1 + slope * slope) ** 1.5)
 
 
 def radius_from_curvature(k: float, max_radius_m: float) -> float:
-    """1/|k| in metres, capped at ``max_radius_m`` (a straight road gives the cap)."""
+    """Turn a curvature into a radius, capped (a straight road gives the cap).
+
+    Parameters
+    ----------
+    k : float
+        Curvature, 1/m (any sign; NaN and inf give the cap).
+    max_radius_m : float
+        The cap, metres.
+
+    Returns
+    -------
+    float
+        1/|k|, metres; never negative, NaN or inf.
+
+    Examples
+    --------
+    >>> radius_from_curvature(-0.002, 10000.0), radius_from_curvature(0.0, 10000.0)
+    (500.0, 10000.0)
+    """
     if not math.isfinite(k) or abs(k) < 1.0 / max_radius_m:
         return float(max_radius_m)
     return float(1.0 / abs(k))
 
 
 def lane_width_m(left_m: np.ndarray, right_m: np.ndarray) -> float:
-    """Lane width at the car (m), across the lane: the x gap times the cosine of the lane's heading."""
+    """Measure the lane width at the car, across the lane: the x gap times the cosine of its heading.
+
+    Parameters
+    ----------
+    left_m, right_m : (3,) ndarray
+        Metre fits of the lines.
+
+    Returns
+    -------
+    float
+        Width, metres.
+
+    Examples
+    --------
+    >>> lane_width_m(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9]))
+    3.7
+    """
     slope = (float(left_m[1]) + float(right_m[1])) / 2
     return float((right_m[2] - left_m[2]) / math.hypot(1.0, slope))
 
 
 @dataclass(frozen=True)
 class LaneGeometry:
-    """Lane numbers at the car (the bird's-eye bottom row), metres; see module docstring."""
+    """Lane numbers at the car (the bird's-eye bottom row); see the module docstring.
+
+    Attributes
+    ----------
+    curvature_per_m : float
+        Signed curvature of the lane centre, 1/m.
+    radius_m : float
+        Radius, metres (capped).
+    offset_m : float
+        Camera centre line minus lane centre, metres.
+    width_m : float
+        Lane width, metres.
+    straight : bool
+        Radius above ``straight_radius_m``.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> lane_geometry(np.array([0, 0, -1.8]), np.array([0, 0, 1.9]), FitConfig()).straight
+    True
+    """
 
     curvature_per_m: float
     radius_m: float
@@ -234,7 +486,27 @@ class LaneGeometry:
 
 
 def lane_geometry(left_m: np.ndarray, right_m: np.ndarray, cfg: FitConfig) -> LaneGeometry:
-    """Curvature, radius, offset and width of the lane between two metre fits."""
+    """Compute the curvature, radius, offset and width of the lane between two metre fits.
+
+    Parameters
+    ----------
+    left_m, right_m : (3,) ndarray
+        Metre fits of the lines.
+    cfg : FitConfig
+        ``max_radius_m`` and ``straight_radius_m``.
+
+    Returns
+    -------
+    LaneGeometry
+        The lane numbers at the car.
+
+    Examples
+    --------
+    >>> from lanefinder.config import FitConfig
+    >>> g = lane_geometry(np.array([0, 0, -1.8]), np.array([0, 0, 1.9]), FitConfig())
+    >>> round(g.offset_m, 2), round(g.width_m, 2), g.radius_m
+    (-0.05, 3.7, 10000.0)
+    """
     centre = (np.asarray(left_m) + np.asarray(right_m)) / 2
     k = curvature_per_m(centre)
     radius = radius_from_curvature(k, cfg.max_radius_m)

@@ -112,7 +112,7 @@ class Measured:
     >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
     >>> out = measure(b, None, Track(), m)
     >>> out.blind, [round(float(line.fit_m[2]), 2) for line in out.lines]
-    (True, [-1.85, 1.85])
+    (True, [-1.86, 1.84])
     """
 
     lines: tuple[Line | None, Line | None]
@@ -175,7 +175,7 @@ def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) ->
 
 
 def _line(fit: LineFit | None, ys: np.ndarray, scale: Scale) -> Line | None:
-    """A measured line's record; its range is how far ahead its farthest pixel lies."""
+    """Make a measured line's record; its range is how far ahead its farthest pixel lies."""
     if fit is None:
         return None
     reach_m = (scale.height_px - float(ys.min())) * scale.ym_per_px if ys.size else math.nan

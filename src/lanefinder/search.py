@@ -18,7 +18,26 @@ import numpy as np
 from .config import SearchConfig
 from .geometry import poly_x
 
-# A window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels; found tells if it held enough pixels.
+__all__ = [
+    "EMPTY",
+    "LinePixels",
+    "Pixels",
+    "SearchParams",
+    "SearchResult",
+    "Window",
+    "base_histogram",
+    "blind_search",
+    "find_bases",
+    "heading_search",
+    "histogram",
+    "search_around",
+    "search_params",
+    "segment_search",
+    "sheared_histogram",
+    "sliding_windows",
+]
+
+#: A search window: (x_lo, y_lo, x_hi, y_hi) in bird's-eye pixels, and whether it held enough pixels.
 Window = tuple[int, int, int, int, bool]
 
 # Fewest pixels a window may ask for, whatever the scale (a window of 3 pixels is noise).
@@ -29,7 +48,48 @@ _SEGMENT_BLUR_PX = 5
 
 @dataclass(frozen=True)
 class SearchParams:
-    """Search settings in bird's-eye pixels (see :func:`search_params`)."""
+    """Search settings in bird's-eye pixels, from :class:`~lanefinder.config.SearchConfig`.
+
+    Attributes
+    ----------
+    method : str
+        ``windows`` or ``segments``.
+    n_windows : int
+        Windows up the view.
+    margin_px : float
+        Half-width of a window, pixels.
+    min_pixels : int
+        Pixels a window needs to count as found.
+    histogram_fraction : float
+        Lower fraction of the view summed for the line bases.
+    around_margin_px : float
+        Half-width of the band around a tracked line, pixels.
+    expected_width_px : float
+        Expected lane width, pixels.
+    width_tolerance : float
+        Relative tolerance on the lane width when pairing bases.
+    upper_histogram_weight, centre_preference, momentum, empty_window_decay : float
+        As in the config.
+    peak_smoothing_px : int
+        Box filter width on the base histogram, pixels.
+    max_peaks : int
+        Peaks paired into bases.
+    base_min_count : float
+        Least peak height, pixels.
+    segment_reach, segment_max_shift, segment_band, segment_min_fraction : float
+        The segment search, as in the config.
+    shears_px : tuple of float
+        Slopes the angled search tries: pixels right per pixel up.
+    heading_band_px : float
+        Half-width of the band the angled search keeps around each window's ridge, pixels.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> round(sp.margin_px, 1), sp.min_pixels, len(sp.shears_px)
+    (24.3, 12, 10)
+    """
 
     method: str
     n_windows: int
@@ -57,7 +117,26 @@ class SearchParams:
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
-    """Turn the metre settings of ``cfg`` into pixels for a bird's-eye scale."""
+    """Turn the metre settings of a search config into pixels for a bird's-eye scale.
+
+    Parameters
+    ----------
+    cfg : SearchConfig
+        The settings, metres.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+
+    Returns
+    -------
+    SearchParams
+        The settings in pixels.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> round(search_params(SearchConfig(), 3.7 / 150, 0.0985).expected_width_px)
+    150
+    """
     per_m = cfg.marking_width_m / (xm_per_px * ym_per_px)  # marking pixels per metre of line
     n = int(cfg.max_heading_deg // cfg.heading_step_deg) if cfg.heading_step_deg > 0 else 0
     angles = [k * cfg.heading_step_deg for k in range(-n, n + 1) if k != 0]
@@ -91,7 +170,20 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
 
 @dataclass(frozen=True, eq=False)
 class LinePixels:
-    """Pixels attributed to one line, bird's-eye (x, y)."""
+    """Pixels attributed to one line, in bird's-eye pixels.
+
+    Attributes
+    ----------
+    x, y : ndarray
+        The pixels' columns and rows (float32).
+    windows : tuple of Window
+        The search windows used, for drawing: (x_lo, y_lo, x_hi, y_hi, found).
+
+    Examples
+    --------
+    >>> LinePixels(np.array([5.0, 6.0]), np.array([10.0, 11.0])).count
+    2
+    """
 
     x: np.ndarray
     y: np.ndarray
@@ -99,11 +191,36 @@ class LinePixels:
 
     @property
     def count(self) -> int:
+        """Number of pixels."""
         return int(self.x.size)
 
 
 @dataclass(frozen=True, eq=False)
 class SearchResult:
+    """What a search found: each line's pixels, and what to draw it with.
+
+    Attributes
+    ----------
+    left, right : LinePixels
+        Each line's pixels.
+    method : str
+        The search that found them (``windows``, ``segments``, ``heading``, ``around``, or two
+        joined by ``+`` when each line kept another search's pixels).
+    histogram : ndarray or None
+        The column histogram the bases came from.
+    bases_px : tuple of (float or None)
+        The left and right line's x at the bottom, pixels.
+    band_px : int
+        Half-width of the band of a search around the track, pixels (0 otherwise).
+    extra : dict
+        Search-specific details (``shear_px`` of the angled search).
+
+    Examples
+    --------
+    >>> SearchResult(EMPTY, EMPTY, "windows").left.count
+    0
+    """
+
     left: LinePixels
     right: LinePixels
     method: str
@@ -113,12 +230,29 @@ class SearchResult:
     extra: dict = field(default_factory=dict)
 
 
+#: A line with no pixels.
 EMPTY = LinePixels(np.empty(0, np.float32), np.empty(0, np.float32))
 
 
 @dataclass(frozen=True, eq=False)
 class Pixels:
-    """All set pixels of a binary, sorted by row (as np.nonzero gives them)."""
+    """All set pixels of a binary, sorted by row (as np.nonzero gives them).
+
+    Every search works on this one list, made once per frame.
+
+    Attributes
+    ----------
+    x, y : ndarray
+        Columns and rows of the set pixels (int32), sorted by row.
+    shape : tuple of int
+        (height, width) of the binary.
+
+    Examples
+    --------
+    >>> px = Pixels.of(np.eye(4, dtype=np.uint8))
+    >>> px.x.tolist(), px.rows(1, 3)
+    ([0, 1, 2, 3], slice(1, 3, None))
+    """
 
     x: np.ndarray
     y: np.ndarray
@@ -126,6 +260,18 @@ class Pixels:
 
     @classmethod
     def of(cls, binary: np.ndarray) -> Pixels:
+        """Collect the set pixels of a binary.
+
+        Parameters
+        ----------
+        binary : (H, W) uint8 ndarray
+            0/1 (or 0/255) image.
+
+        Returns
+        -------
+        Pixels
+            Its set pixels, sorted by row.
+        """
         pts = cv2.findNonZero(binary)
         if pts is None:
             e = np.empty(0, np.int32)
@@ -134,12 +280,41 @@ class Pixels:
         return cls(pts[:, 0], pts[:, 1], binary.shape[:2])
 
     def rows(self, y_lo: int, y_hi: int) -> slice:
-        """The slice of pixels with y_lo <= y < y_hi."""
+        """Return the slice of pixels with y_lo <= y < y_hi.
+
+        Parameters
+        ----------
+        y_lo, y_hi : int
+            Rows, pixels.
+
+        Returns
+        -------
+        slice
+            Into ``x`` and ``y``.
+        """
         return slice(int(np.searchsorted(self.y, y_lo)), int(np.searchsorted(self.y, y_hi)))
 
 
 def histogram(binary: np.ndarray, fraction: float = 0.5) -> np.ndarray:
-    """Column sums of the lower ``fraction`` of the binary, float32."""
+    """Sum the columns of the lower part of a binary.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    fraction : float
+        Lower fraction of the rows to sum.
+
+    Returns
+    -------
+    (W,) float32 ndarray
+        Set pixels per column.
+
+    Examples
+    --------
+    >>> histogram(np.eye(4, dtype=np.uint8), 0.5).tolist()
+    [0.0, 0.0, 1.0, 1.0]
+    """
     h = binary.shape[0]
     return cv2.reduce(binary[int(h * (1 - fraction)):], 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel().astype(np.float32)
 
@@ -149,7 +324,7 @@ def _smooth(hist: np.ndarray, width: int) -> np.ndarray:
 
 
 def _local_maxima(h: np.ndarray, min_count: float, most: int) -> np.ndarray:
-    """Indices of the ``most`` highest local maxima of ``h`` at or above ``min_count``."""
+    """Return the indices of the ``most`` highest local maxima of ``h`` at or above ``min_count``."""
     if h.size < 3:
         return np.empty(0, int)
     inner = (h[1:-1] >= h[:-2]) & (h[1:-1] > h[2:]) & (h[1:-1] >= min_count)
@@ -158,11 +333,33 @@ def _local_maxima(h: np.ndarray, min_count: float, most: int) -> np.ndarray:
 
 
 def find_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[float | None, float | None]:
-    """Left and right line x at the bottom from a (column) histogram.
+    """Find the left and right line's x at the bottom from a column histogram.
 
     Of all pairs of peaks, one left and one right of the car, whose spacing is the expected
-    lane width within ``tolerance``, the pair with the most support wins.  With no such
+    lane width within the tolerance, the pair with the most support wins.  With no such
     pair, the strongest peak is kept alone on its side of the car.
+
+    Parameters
+    ----------
+    hist : (W,) ndarray
+        Column support.
+    car_x : float
+        The car's column, pixels.
+    cfg : SearchParams
+        Expected width, tolerance, smoothing and peak settings.
+
+    Returns
+    -------
+    tuple of (float or None)
+        Left and right base x, pixels; None where there is none.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> find_bases(histogram(b, 0.5), 200.0, sp)
+    (126.0, 276.0)
     """
     left, right, _ = _scored_bases(hist, car_x, cfg)
     return left, right
@@ -192,9 +389,28 @@ def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[fl
 
 
 def base_histogram(binary: np.ndarray, fraction: float, upper_weight: float) -> np.ndarray:
-    """Column support for line bases: the lower ``fraction`` counts fully, the rest ``upper_weight``.
+    """Sum columns for line bases: the lower ``fraction`` counts fully, the rest ``upper_weight``.
 
     A line with a gap at the bottom (between dashes) still gets a base from higher up.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    fraction : float
+        Lower fraction of the rows that counts fully.
+    upper_weight : float
+        Weight of the other rows.
+
+    Returns
+    -------
+    (W,) float32 ndarray
+        Column support.
+
+    Examples
+    --------
+    >>> base_histogram(np.eye(4, dtype=np.uint8), 0.5, 0.5).tolist()
+    [0.5, 0.5, 1.0, 1.0]
     """
     h = binary.shape[0]
     cut = int(h * (1 - fraction))
@@ -289,7 +505,33 @@ def _blind(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels |
 
 def sliding_windows(binary: np.ndarray, cfg: SearchParams, car_x: float,
                     pixels: Pixels | None = None) -> SearchResult:
-    """Histogram of the lower image for the line bases, then windows stepping up."""
+    """Find line bases in a histogram of the lower view, then follow each line up with windows.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    cfg : SearchParams
+        Settings in pixels.
+    car_x : float
+        The car's column, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult
+        Each line's pixels and windows.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> found = sliding_windows(b, sp, 200.0)
+    >>> found.left.count, found.right.count
+    (1800, 1800)
+    """
     return _blind(binary, cfg, car_x, pixels, "windows")
 
 
@@ -337,20 +579,90 @@ def _segments_for(binary: np.ndarray, px: Pixels, base: float | None, cfg: Searc
 
 def segment_search(binary: np.ndarray, cfg: SearchParams, car_x: float,
                    pixels: Pixels | None = None) -> SearchResult:
-    """Histograms segment by segment, following each line up and rejecting implausible peaks."""
+    """Follow each line up segment by segment, by histograms, rejecting implausible peaks.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    cfg : SearchParams
+        Settings in pixels.
+    car_x : float
+        The car's column, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult
+        Each line's pixels and segments.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> segment_search(b, sp, 200.0).method
+    'segments'
+    """
     return _blind(binary, cfg, car_x, pixels, "segments")
 
 
 def blind_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: Pixels | None = None) -> SearchResult:
-    """The configured search that needs no previous fit (``cfg.method``: windows or segments)."""
+    """Search without a previous fit, with the configured method (windows or segments).
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    cfg : SearchParams
+        Settings in pixels (``method``).
+    car_x : float
+        The car's column, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult
+        Each line's pixels.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> blind_search(b, sp, 200.0).bases_px
+    (126.0, 276.0)
+    """
     return _blind(binary, cfg, car_x, pixels, cfg.method)
 
 
 def sheared_histogram(px: Pixels, shear: float, fraction: float) -> np.ndarray:
-    """Column support at the bottom row for lines leaning ``shear`` px right per px up.
+    """Sum the lower view along a slope: column support at the bottom row for leaning lines.
 
-    Each set pixel of the lower ``fraction`` is moved back along that lean to the bottom row;
-    a line at that lean piles up in one column (float32, one bin per column).
+    Each set pixel of the lower ``fraction`` is moved back along the lean to the bottom row;
+    a line at that lean piles up in one column.
+
+    Parameters
+    ----------
+    px : Pixels
+        The set pixels of the binary.
+    shear : float
+        The lean, pixels right per pixel up.
+    fraction : float
+        Lower fraction of the rows used.
+
+    Returns
+    -------
+    (W,) float32 ndarray
+        Support per bottom-row column.
+
+    Examples
+    --------
+    >>> b = np.zeros((10, 10), np.uint8); b[np.arange(10), np.arange(9, -1, -1)] = 1
+    >>> int(sheared_histogram(Pixels.of(b), 1.0, 1.0).argmax())
+    0
     """
     h, w = px.shape
     sl = px.rows(int(h * (1 - fraction)), h)
@@ -365,6 +677,30 @@ def heading_search(binary: np.ndarray, cfg: SearchParams, car_x: float, pixels: 
     whose histogram gives the best-supported pair of bases (see :func:`find_bases`) is followed
     up with windows that start at that slope; each window keeps only its pixels within
     ``cfg.heading_band_px`` of its strongest ridge.  ``extra["shear_px"]`` holds the slope chosen.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    cfg : SearchParams
+        Settings in pixels (``shears_px``, ``heading_band_px``).
+    car_x : float
+        The car's column, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult
+        Each line's pixels and windows; ``method`` is ``heading``.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
+    >>> heading_search(b, sp, 200.0).method
+    'heading'
     """
     px = pixels or Pixels.of(binary)
     best: tuple[float, float, tuple[float | None, float | None], np.ndarray | None] = (0.0, 0.0, (None, None), None)
@@ -390,7 +726,30 @@ def _around(px: Pixels, fit: np.ndarray | None, margin: float) -> LinePixels:
 
 def search_around(binary: np.ndarray, left_fit: np.ndarray | None, right_fit: np.ndarray | None,
                   margin_px: float, pixels: Pixels | None = None) -> SearchResult:
-    """Pixels within ``margin_px`` of previous fits x = a*y^2 + b*y + c."""
+    """Collect the pixels within a band around previous fits x = a*y^2 + b*y + c.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    left_fit, right_fit : (3,) ndarray or None
+        The previous fits, bird's-eye pixels.
+    margin_px : float
+        Half-width of the band, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult
+        Each line's pixels; ``method`` is ``around``.
+
+    Examples
+    --------
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1
+    >>> search_around(b, np.array([0.0, 0.0, 125.0]), None, 10.0).left.count
+    1800
+    """
     px = pixels or Pixels.of(binary)
     return SearchResult(_around(px, left_fit, margin_px), _around(px, right_fit, margin_px), "around",
                         band_px=int(margin_px))

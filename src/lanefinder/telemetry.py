@@ -105,7 +105,7 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> 
     >>> from lanefinder import Config, LaneFinder
     >>> be = LaneFinder(Config()).birdseye((1280, 720))
     >>> line_x_at_rows(np.array([0.0, 0.0, 125.0]), be, [460, 700])
-    [582.0, 240.3]
+    [581.3, 244.7]
     """
     if fit_px is None:
         return [-2.0] * len(rows)

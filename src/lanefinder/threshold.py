@@ -129,7 +129,7 @@ def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
 
 
 def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
-    """Markings as horizontal ridges of lightness (white and yellow) or of yellowness.
+    """Find markings as horizontal ridges of lightness (white and yellow) or of yellowness.
 
     Lightness is the green channel (close to luminance, high on white and yellow paint);
     yellowness is red minus blue.  The top-hat ``v - opening(v)`` over a ``width_m`` wide

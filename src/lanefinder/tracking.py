@@ -257,7 +257,7 @@ def _smooth(old: Fit, new: Fit, conf: float, rules: Rules) -> Fit:
 
 def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: tuple[float, float],
            measured: Pair, rules: Rules, shown: bool) -> tuple[Line, Line]:
-    """The two :class:`Line` records of a verdict."""
+    """Make the two :class:`Line` records of a verdict."""
     out = []
     for fit, ok, c, m in zip(fits, found, conf, measured, strict=True):
         out.append(Line(
@@ -269,7 +269,7 @@ def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: 
 
 def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured: Pair, blind: bool,
           rules: Rules, keep_candidate: bool = False) -> tuple[Track, Verdict]:
-    """A frame whose measurements were not taken: hold the lane, or lose it."""
+    """Handle a frame whose measurements were not taken: hold the lane, or lose it."""
     c = rules.cfg
     misses, since_both, cand = track.misses + 1, track.since_both + 1, track.candidate
     if not keep_candidate and cand is not None:
@@ -285,8 +285,10 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
 
 
 def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules) -> tuple[Candidate, bool]:
-    """Count sightings of the same candidate lane (a gap of up to ``start_frames`` frames is
-    allowed between them); a pair needs two sightings, one line ``start_frames``.
+    """Count sightings of the same candidate lane.
+
+    A gap of up to ``start_frames`` frames is allowed between them; a pair needs two
+    sightings, one line ``start_frames``.
     """
     prev = track.candidate
     same = prev is not None and all(
@@ -296,35 +298,75 @@ def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules) -> t
     return cand, count >= (2 if pair else rules.cfg.start_frames)
 
 
-def _accept_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str]) -> tuple[list[bool], list[float]]:
-    """Rules 1-2: which measured lines are taken, and their confidences."""
+def _near_track(track: Track, measured: Pair, ok: list[bool], rules: Rules) -> list[bool]:
+    """Per line: taken so far and within the jump limit of its track (or no jump limit holds)."""
+    blind = track.needs_blind_search(rules.cfg)
+    near = []
+    for m, tracked, taken in zip(measured, track.fits_m, ok, strict=True):
+        free = tracked is None or blind
+        near.append(taken and (free or lines_close(m.fit_m, tracked, rules.lookahead_m, rules.cfg)))  # type: ignore[union-attr,arg-type]
+    return near
+
+
+def _taken_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str]) -> list[bool]:
+    """Rule 1: the measured lines that are confident and did not jump from their track."""
     c = rules.cfg
-    conf = [m.confidence if m is not None else 0.0 for m in measured]
-    ok = [m is not None and m.confidence >= c.min_confidence for m in measured]
+    ok = []
     for side, m in zip(SIDES, measured, strict=True):
-        if reason := check_confidence(side, None if m is None else m.confidence, c):
-            reasons.append(reason)
-    blind = track.needs_blind_search(c)
-    near = [ok[i] and (track.fits_m[i] is None or blind
-                       or lines_close(measured[i].fit_m, track.fits_m[i], rules.lookahead_m, c))  # type: ignore[union-attr]
-            for i in (0, 1)]
+        reason = check_confidence(side, None if m is None else m.confidence, c)
+        reasons.extend([reason] if reason else [])
+        ok.append(m is not None and reason is None)
+    near = _near_track(track, measured, ok, rules)
     for i, side in enumerate(SIDES):
         if ok[i] and (reason := check_jump(side, near[i], track.guessed[i], near[1 - i])):
             ok[i] = False
             reasons.append(reason)
-    if ok[0] and ok[1]:
-        lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
-        problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c)
-        if problems:
-            reasons.extend(problems)
-            # Keep the line that agrees better with the track, else the more confident one.
-            if track.has_lane and not blind:
-                drop = 0 if abs(lm[2] - track.fits_m[0][2]) > abs(rm[2] - track.fits_m[1][2]) else 1
-            else:
-                drop = 0 if conf[0] < conf[1] else 1
-            ok[drop] = False
-            conf = [v * c.rejected_pair_confidence for v in conf]
-    return ok, conf
+    return ok
+
+
+def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float], rules: Rules,
+                 reasons: list[str]) -> list[float]:
+    """Rule 2: a pair that fails the lane checks keeps one line; both confidences drop."""
+    c = rules.cfg
+    lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
+    problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c)
+    if not problems:
+        return conf
+    reasons.extend(problems)
+    # Keep the line that agrees better with the track, else the more confident one.
+    if not track.needs_blind_search(c):
+        drop = 0 if abs(lm[2] - track.fits_m[0][2]) > abs(rm[2] - track.fits_m[1][2]) else 1  # type: ignore[index]
+    else:
+        drop = 0 if conf[0] < conf[1] else 1
+    ok[drop] = False
+    return [v * c.rejected_pair_confidence for v in conf]
+
+
+def _unconfirmed(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float],
+                 rules: Rules) -> Candidate | None:
+    """Rule 4: after a lost lane, the candidate a weak start still waits on (None: go ahead)."""
+    if track.has_lane or not track.was_lost:
+        return None
+    both = ok[0] and ok[1]
+    if both and min(conf) >= rules.cfg.min_start_confidence:
+        return None
+    cand, confirmed = _confirm(track, fits, both, rules)
+    return None if confirmed else cand
+
+
+def _commit(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float], rules: Rules) -> Track:
+    """Rule 6: smooth the fits into the track (a line seen again after being guessed snaps to it)."""
+    c = rules.cfg
+    fresh = track.needs_blind_search(c)
+    new_fits = []
+    for i in (0, 1):
+        if fresh or (ok[i] and track.guessed[i] > 0):
+            new_fits.append(fits[i].copy())
+        else:
+            weight = conf[i] if ok[i] else c.inferred_weight * conf[1 - i]
+            new_fits.append(_smooth(track.fits_m[i], fits[i], weight, rules))  # type: ignore[arg-type]
+    guessed = (0 if ok[0] else track.guessed[0] + 1, 0 if ok[1] else track.guessed[1] + 1)
+    return replace(track, fits_m=(new_fits[0], new_fits[1]), misses=0, guessed=guessed)
 
 
 def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track, Verdict]:
@@ -365,30 +407,26 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     """
     c = rules.cfg
     reasons: list[str] = []
-    ok, conf = _accept_lines(track, measured, rules, reasons)
+    ok = _taken_lines(track, measured, rules, reasons)
+    conf = [m.confidence if m is not None else 0.0 for m in measured]
+    if ok[0] and ok[1]:
+        conf = _settle_pair(track, measured, ok, conf, rules, reasons)
     conf_t = (conf[0], conf[1])
-    re_detecting = track.needs_blind_search(c)
+    lone = None
     if ok[0] != ok[1]:
-        reason = check_one_line(conf[0] if ok[0] else conf[1], re_detecting, track.since_both, c)
-        if reason:
-            reasons.append(reason)
-            return _miss(track, reasons, conf_t, measured, blind, rules)
-    if not ok[0] and not ok[1]:
+        lone = check_one_line(conf[0] if ok[0] else conf[1], track.needs_blind_search(c), track.since_both, c)
+        reasons.extend([lone] if lone else [])
+    if lone or not (ok[0] or ok[1]):
         return _miss(track, reasons, conf_t, measured, blind, rules)
 
     both = ok[0] and ok[1]
     width = track.width_m if track.width_m is not None else rules.default_width_m
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    if not track.has_lane:
-        strong = both and min(conf) >= c.min_start_confidence
-        if track.was_lost and not strong:
-            cand, confirmed = _confirm(track, fits, both, rules)
-            if not confirmed:
-                # A weak start must be seen again in the same place before it is shown.
-                reasons.append("confirming")
-                return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules,
-                             keep_candidate=True)
+    if (cand := _unconfirmed(track, fits, ok, conf, rules)) is not None:
+        # A weak start must be seen again in the same place before it is shown.
+        reasons.append("confirming")
+        return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
     width_m = track.width_m
     if both:
         w_meas = lane_width_m(*fits)
@@ -398,16 +436,6 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         # The lane these lines make would not hold the car: not this lane.
         reasons.append(reason)
         return _miss(track, reasons, conf_t, measured, blind, rules)
-    fresh = re_detecting
-    new_fits = []
-    for i in (0, 1):
-        # A line seen again after being guessed snaps to the measurement.
-        if fresh or (ok[i] and track.guessed[i] > 0):
-            new_fits.append(fits[i].copy())
-        else:
-            weight = conf[i] if ok[i] else c.inferred_weight * conf[1 - i]
-            new_fits.append(_smooth(track.fits_m[i], fits[i], weight, rules))  # type: ignore[arg-type]
-    track = replace(track, fits_m=(new_fits[0], new_fits[1]), misses=0,
-                    guessed=tuple(0 if ok[i] else track.guessed[i] + 1 for i in (0, 1)))  # type: ignore[arg-type]
+    track = _commit(track, fits, ok, conf, rules)
     left, right = _lines(track.fits_m, (ok[0], ok[1]), conf_t, measured, rules, shown=True)
     return track, Verdict(left, right, REDETECT if blind else TRACKING, 0, tuple(reasons))

@@ -19,6 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from .birdseye import BirdsEye
 from .config import Config
 from .errors import LaneFinderError
 from .io import check_not_input, write_image
@@ -113,8 +114,8 @@ class VideoSummary:
         The input ended early.
     interrupted : bool
         The run was stopped by Ctrl-C or SIGTERM.
-    output : str
-        The annotated video.
+    output : str or None
+        The annotated video (None when no video was written).
     telemetry : str or None
         The telemetry file.
 
@@ -136,7 +137,7 @@ class VideoSummary:
     damaged: int
     truncated: bool
     interrupted: bool
-    output: str
+    output: str | None
     telemetry: str | None
 
     def lines(self) -> list[str]:
@@ -152,7 +153,7 @@ class VideoSummary:
             f"frames: {self.frames} in {self.seconds:.1f} s ({self.fps:.1f} fps)",
             f"frames with a lane: {self.tracked} ({pct:.1f}%), both lines seen: {self.both_found}",
             f"re-detections: {self.redetections}, frames marked lost: {self.lost}, damaged packets: {self.damaged}",
-            f"video: {self.output}" + (f", telemetry: {self.telemetry}" if self.telemetry else ""),
+            ", ".join(f"{k}: {v}" for k, v in (("video", self.output), ("telemetry", self.telemetry)) if v),
         ]
         if self.truncated:
             out.append("the input ended early (truncated file): the output holds the frames that could be read")
@@ -162,8 +163,10 @@ class VideoSummary:
 
 
 def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
-    """Ctrl-C (SIGINT) or SIGTERM set ``stop``, so the job ends at a frame boundary with the video and the
-    telemetry in step; a second signal acts as usual.  Main thread only; returns the undo.
+    """Make Ctrl-C (SIGINT) and SIGTERM set ``stop``; returns the undo.
+
+    The job then ends at a frame boundary with the video and the telemetry in step; a second
+    signal acts as usual.  Main thread only.
     """
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
@@ -182,13 +185,12 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
     return restore
 
 
-def _check_args(src: Path, dst: Path, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
+def _check_args(src: Path, dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
                 end_s: float | None) -> None:
     """Refuse outputs over inputs and impossible spans before any work."""
-    check_not_input(dst, [src])
-    for extra in (telemetry, sheet):
-        if extra is not None:
-            check_not_input(extra, [src, dst])
+    outputs = [p for p in (dst, telemetry, sheet) if p is not None]
+    for i, out in enumerate(outputs):
+        check_not_input(out, [src, *outputs[:i]])
     if not (start_s >= 0 and (end_s is None or end_s > start_s)):  # also refuses NaN
         raise LaneFinderError(f"--start/--end must satisfy 0 <= start < end (got {start_s}, {end_s})")
 
@@ -196,7 +198,7 @@ def _check_args(src: Path, dst: Path, telemetry: str | Path | None, sheet: str |
 class _Threads:
     """The decoder and encoder threads around the main (processing) loop."""
 
-    def __init__(self, source: Iterator[Frame], sink: VideoSink, max_frames: int | None):
+    def __init__(self, source: Iterator[Frame], sink: VideoSink | None, max_frames: int | None):
         self.in_q: queue.Queue = queue.Queue(maxsize=_QUEUE_FRAMES)
         self.out_q: queue.Queue = queue.Queue(maxsize=_QUEUE_FRAMES)
         self.stop = threading.Event()
@@ -205,7 +207,8 @@ class _Threads:
         self._dec = threading.Thread(target=self._decode, name="lanefinder-decode", daemon=True)
         self._enc = threading.Thread(target=self._encode, name="lanefinder-encode", daemon=True)
         self._dec.start()
-        self._enc.start()
+        if sink is not None:
+            self._enc.start()
 
     def _decode(self) -> None:
         try:
@@ -219,6 +222,7 @@ class _Threads:
             self.in_q.put(_END)
 
     def _encode(self) -> None:
+        assert self._sink is not None
         try:
             while (img := self.out_q.get()) is not _END:
                 self._sink.write(img)
@@ -229,15 +233,16 @@ class _Threads:
                 pass
 
     def frames(self) -> Iterator[Frame]:
-        """The decoded frames, until the end or a stop."""
+        """Yield the decoded frames, until the end or a stop."""
         while (f := self.in_q.get()) is not _END and not self.stop.is_set():
             yield f
 
     def join(self) -> None:
         """Stop both threads: the encoder after the frames queued, the decoder at once."""
         self.stop.set()
-        self.out_q.put(_END)
-        self._enc.join()
+        if self._enc.is_alive():
+            self.out_q.put(_END)
+            self._enc.join()
         while self._dec.is_alive():
             with contextlib.suppress(queue.Empty):
                 self.in_q.get(timeout=0.05)
@@ -254,9 +259,62 @@ def _expected_frames(info: VideoInfo, start_s: float, end_s: float | None, max_f
     return min(expected, max_frames) if max_frames else expected
 
 
+class _Run:
+    """The processing loop of one video: each frame found, drawn, written and counted."""
+
+    def __init__(self, finder: LaneFinder, be: BirdsEye, expected: int, sheet_frames: int, debug: bool,
+                 on_result: Callable[[int, LaneResult], None] | None):
+        self.finder, self.be, self.expected, self.debug, self.on_result = finder, be, expected, debug, on_result
+        self.sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist())
+        self.thumbs: list[tuple[float, np.ndarray]] = []
+        self.counts = RunCounts()
+
+    def frame(self, f: Frame, writer: TelemetryWriter | None, draw: bool) -> np.ndarray | None:
+        """Find, record and count one frame; returns the annotated image when ``draw`` asks for it."""
+        result = self.finder.process(f.image)
+        if writer:
+            writer.write(make_row(f.index, f.time_s, result, self.be))
+        if self.on_result:
+            self.on_result(f.index, result)
+        out = None
+        on_sheet = self.counts.frames in self.sheet_at
+        if draw or on_sheet:
+            out = annotate(f.image, result, self.be, self.finder.config.render, inplace=True)
+            if self.debug:
+                draw_debug(out, result)
+            if on_sheet:
+                self.thumbs.append((f.time_s, _thumb(out)))
+        self.counts.add(result)
+        return out if draw else None
+
+    def loop(self, threads: _Threads, writer: TelemetryWriter | None, encoding: bool, progress: bool,
+             name: str) -> bool:
+        """Process frames until the end, a failure or a stop signal; returns True if interrupted."""
+        from tqdm import tqdm
+
+        interrupt = threading.Event()
+        undo_signal = _stop_on_signals(interrupt)
+        bar = tqdm(total=self.expected, unit="frame", disable=not progress, dynamic_ncols=True, desc=name)
+        try:
+            for f in threads.frames():
+                if interrupt.is_set():
+                    break
+                out = self.frame(f, writer, draw=encoding)
+                if encoding:
+                    threads.out_q.put(out)
+                bar.update(1)
+        except KeyboardInterrupt:
+            interrupt.set()
+        finally:
+            bar.close()
+            undo_signal()
+            threads.join()
+        return interrupt.is_set()
+
+
 def process_video(
     src: str | Path,
-    dst: str | Path,
+    dst: str | Path | None,
     config: Config | None = None,
     start_s: float = 0.0,
     end_s: float | None = None,
@@ -278,8 +336,9 @@ def process_video(
     ----------
     src : str or Path
         The input video (anything PyAV decodes).
-    dst : str or Path
-        The annotated H.264 MP4 to write.
+    dst : str or Path or None
+        The annotated H.264 MP4 to write; None writes no video (then nothing is drawn or
+        encoded, and ``telemetry`` must be given).
     config : Config, optional
         The configuration (defaults when omitted).
     start_s, end_s : float
@@ -318,10 +377,10 @@ def process_video(
     >>> s.frames, s.tracked
     (5, 5)
     """
-    from tqdm import tqdm
-
     cfg = config or Config()
-    src, dst = Path(src), Path(dst)
+    src, dst = Path(src), (Path(dst) if dst is not None else None)
+    if dst is None and telemetry is None:
+        raise LaneFinderError("nothing to write: give an output video, telemetry, or both")
     _check_args(src, dst, telemetry, contact_sheet_path, start_s, end_s)
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
@@ -329,62 +388,36 @@ def process_video(
     finder = LaneFinder(cfg, keep_debug=debug)
     be = finder.birdseye(info.size)  # fails early on a size the camera cannot serve
     expected = _expected_frames(info, start_s, end_s, max_frames)
-    sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist())
-
     decode_stats = DecodeStats()
-    sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads)
+    run = _Run(finder, be, expected, sheet_frames, debug, on_result)
+    sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads) if dst is not None else None
     writer = TelemetryWriter(telemetry) if telemetry is not None else None
     threads = _Threads(frames(src, start_s, end_s, cfg.video.threads, decode_stats), sink, max_frames)
-    interrupt = threading.Event()
-    undo_signal = _stop_on_signals(interrupt)
-    thumbs: list[tuple[float, np.ndarray]] = []
-    counts = RunCounts()
     t0 = time.perf_counter()
-    bar = tqdm(total=expected, unit="frame", disable=not progress, dynamic_ncols=True, desc=src.name)
-    try:
-        for f in threads.frames():
-            if interrupt.is_set():
-                break
-            result = finder.process(f.image)
-            out = annotate(f.image, result, be, cfg.render, inplace=True)
-            if debug:
-                draw_debug(out, result)
-            threads.out_q.put(out)
-            if writer:
-                writer.write(make_row(f.index, f.time_s, result, be))
-            if on_result:
-                on_result(f.index, result)
-            if counts.frames in sheet_at:
-                thumbs.append((f.time_s, _thumb(out)))
-            counts.add(result)
-            bar.update(1)
-    except KeyboardInterrupt:
-        interrupt.set()
-    finally:
-        bar.close()
-        undo_signal()
-        threads.join()
-    interrupted = interrupt.is_set()
+    interrupted = run.loop(threads, writer, sink is not None, progress, src.name)
     failed = bool(threads.errors) and not interrupted
+    done = run.counts.frames
     if writer:
-        (writer.discard if failed or not counts.frames else writer.close)()
-    (sink.close if counts.frames and not failed else sink.discard)()
+        (writer.discard if failed or not done else writer.close)()
+    if sink is not None:
+        (sink.close if done and not failed else sink.discard)()
     elapsed = time.perf_counter() - t0
-    # A file cut short may just end (its index said more): fewer frames than it announced.
-    ended_early = decode_stats.truncated or (not interrupted and counts.frames < expected - _EARLY_END_FRAMES)
     if failed:
         e = threads.errors[0]
         if isinstance(e, LaneFinderError):
             raise e
-        raise LaneFinderError(f"video processing failed after {counts.frames} frames: {e}") from e
-    if counts.frames == 0:
+        raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
+    if done == 0:
         raise LaneFinderError(f"no frames could be decoded from {src}" +
                               (f" between {start_s} s and {end_s} s" if start_s or end_s else ""))
-    if contact_sheet_path and thumbs:
-        write_image(contact_sheet_path, contact_sheet(thumbs))
+    if contact_sheet_path and run.thumbs:
+        write_image(contact_sheet_path, contact_sheet(run.thumbs))
+    # A file cut short may just end (its index said more): fewer frames than it announced.
+    ended_early = decode_stats.truncated or (not interrupted and done < expected - _EARLY_END_FRAMES)
+    c = run.counts
     return VideoSummary(
-        frames=counts.frames, seconds=elapsed, fps=counts.frames / elapsed if elapsed else 0.0,
-        tracked=counts.with_lane, both_found=counts.both_found, redetections=counts.redetections, lost=counts.lost,
-        damaged=decode_stats.damaged, truncated=ended_early, interrupted=interrupted,
-        output=str(dst), telemetry=str(telemetry) if telemetry else None,
+        frames=done, seconds=elapsed, fps=done / elapsed if elapsed else 0.0, tracked=c.with_lane,
+        both_found=c.both_found, redetections=c.redetections, lost=c.lost, damaged=decode_stats.damaged,
+        truncated=ended_early, interrupted=interrupted, output=str(dst) if dst is not None else None,
+        telemetry=str(telemetry) if telemetry else None,
     )
