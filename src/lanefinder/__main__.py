@@ -1,3 +1,5 @@
+"""Run the command line as ``python -m lanefinder``."""
+
 from .cli import main
 
 main()
