@@ -66,9 +66,9 @@ def _synthetic_camera() -> CameraModel:
 
 def _true_scale(cam: CameraModel, mount: Mount, cfg) -> tuple[float, float]:
     """Metres per bird's-eye pixel of a set-up, measured by projecting known road points."""
-    from lanefinder.synth import _level_to_camera
+    from lanefinder.synth import level_to_camera
 
-    rot = _level_to_camera(mount.pitch_deg)
+    rot = level_to_camera(mount.pitch_deg)
     be = make_birdseye(cam, np.array(cfg.src), np.array(cfg.dst), cfg.size, cfg.xm_per_px, cfg.ym_per_px)
     pts = np.array([[-1.0, mount.height_m, 15.0], [1.0, mount.height_m, 15.0], [0.0, mount.height_m, 10.0],
                     [0.0, mount.height_m, 20.0]])
@@ -80,6 +80,7 @@ def _true_scale(cam: CameraModel, mount: Mount, cfg) -> tuple[float, float]:
     return float(xm), float(ym)
 
 
+@pytest.mark.slow
 def test_a_camera_with_other_height_pitch_and_focal_length_is_set_up_correctly():
     cam = _synthetic_camera()
     mount = Mount(height_m=1.6, pitch_deg=3.0)
@@ -110,11 +111,12 @@ def test_curved_road_and_non_road_frames_are_refused(test_images, udacity_camera
 def test_other_frame_sizes_work_with_the_defaults(size, test_images):
     img = cv2.resize(test_images["test3"], size, interpolation=cv2.INTER_AREA if size[0] < 1280 else cv2.INTER_CUBIC)
     r = LaneFinder(Config()).process(img)
-    assert r.left_found and r.right_found
+    assert r.left.found and r.right.found
     assert 3.5 < r.width_m < 3.95  # 3.71 m at 1280x720
     assert abs(r.offset_m - (-0.19)) < 0.06
 
 
+@pytest.mark.slow
 def test_setup_command(tmp_path):
     out = tmp_path / "cam.toml"
     p = subprocess.run([sys.executable, "-m", "lanefinder", "setup",
@@ -132,16 +134,16 @@ def test_setup_command(tmp_path):
     assert bad.returncode == 2 and "Traceback" not in bad.stderr and not (tmp_path / "bad.toml").exists()
 
 
+@pytest.mark.slow
 def test_auto_setup_meets_the_project_video_bars(tmp_path, test_images, udacity_camera):
+    from lanefinder.stats import video_stats
     from lanefinder.telemetry import read_telemetry
     from lanefinder.videojob import process_video
-
-    from check_videos import video_stats
 
     src = shared_video("project_video")
     auto = auto_setup([test_images["straight_lines1"], test_images["straight_lines2"]], udacity_camera)
     cfg = Config(birdseye=auto.birdseye)
-    process_video(src, tmp_path / "p.mp4", cfg, telemetry=tmp_path / "p.jsonl", progress=False)
+    process_video(src, None, cfg, telemetry=tmp_path / "p.jsonl", progress=False)
     rows = read_telemetry(tmp_path / "p.jsonl")
     st = video_stats(rows)
     assert all(r["state"] != "lost" for r in rows)

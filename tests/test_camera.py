@@ -56,6 +56,7 @@ def _row_deviation(rows: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
+@pytest.mark.slow
 def test_corner_rows_are_straight_after_undistortion(calibrated):
     before, after = {}, {}
     for n in range(1, 21):

@@ -8,9 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
+from lanefinder.camera import udacity_camera
 from lanefinder.config import load_config
 from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
-from lanefinder.pipeline import LaneFinder, _udacity_camera
+from lanefinder.pipeline import LaneFinder
 from lanefinder.synth import SCENARIOS, Mount, Renderer, write_sequence
 from lanefinder.telemetry import make_row
 from lanefinder.videojob import process_video
@@ -18,9 +19,10 @@ from lanefinder.videojob import process_video
 
 @pytest.fixture(scope="module")
 def camera():
-    return _udacity_camera()
+    return udacity_camera()
 
 
+@pytest.mark.slow
 def test_undistorting_a_frame_gives_the_pinhole_rendering_back(camera):
     pinhole = replace(camera, dist_coeffs=np.zeros(5))
     distorted = Renderer(camera, Mount(), SCENARIOS["curve"], seed=1).render(1.0)
@@ -47,6 +49,7 @@ def test_ground_truth_lines_sit_on_the_painted_markings(camera):
     assert truth.radius_m is None and truth.curvature_per_m == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 3, 4, 5])
 def test_a_straight_synthetic_frame_gives_both_lines_within_2_px(tmp_path, camera, seed):
     # One frame, no tracking: the dashed line's few dashes limit a single frame; over seeds 0-11
@@ -81,10 +84,11 @@ BARS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(BARS))
 def test_accuracy_regression(name, tmp_path):
     folder = write_sequence(name, 30, tmp_path, seed=0)
-    process_video(folder / "video.mp4", folder / "out.mp4", load_config(folder / "config.toml"),
+    process_video(folder / "video.mp4", None, load_config(folder / "config.toml"),
                   telemetry=folder / "t.jsonl", progress=False)
     rep = evaluate(read_ground_truth(folder / "gt.jsonl"), read_predictions(folder / "t.jsonl"))
     min_acc, max_off, max_off90, max_cat = BARS[name]
@@ -94,6 +98,7 @@ def test_accuracy_regression(name, tmp_path):
     assert rep.catastrophic_rate <= max_cat
 
 
+@pytest.mark.slow
 def test_synth_command_writes_a_complete_sequence(tmp_path):
     import json
     import subprocess

@@ -18,15 +18,38 @@ import numpy as np
 
 from .camera import CameraModel, distort_points, undistort_points
 
+__all__ = ["BirdsEye", "camera_foot_px", "make_birdseye", "plane_pose"]
+
 
 @dataclass(frozen=True, eq=False)
 class BirdsEye:
-    """A bird's-eye set-up for one camera at one frame size.
+    """A bird's-eye set-up for one camera at one frame size; build it with :func:`make_birdseye`.
 
-    src_px: 4x2 trapezoid in undistorted frame pixels; dst_px: 4x2 rectangle in bird's-eye pixels.
-    size: (width, height) of the bird's-eye image in pixels.
-    xm_per_px, ym_per_px: metres per bird's-eye pixel across and along the road.
-    car_x_px: bird's-eye x of the road point right below the camera (see :func:`camera_foot_px`).
+    Attributes
+    ----------
+    camera : CameraModel
+        The lens model; ``camera.image_size`` is the frame size this set-up takes.
+    src_px : (4, 2) float32 ndarray
+        The road trapezoid in undistorted frame pixels.
+    dst_px : (4, 2) float32 ndarray
+        Where it lands: a rectangle in bird's-eye pixels.
+    size : tuple of int
+        (width, height) of the bird's-eye image, pixels.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+    matrix, matrix_inv : (3, 3) ndarray
+        The homography from undistorted frame pixels to bird's-eye pixels, and its inverse.
+    map1, map2 : ndarray
+        The ``cv2.remap`` tables from the raw frame to the bird's-eye image.
+    car_x_px : float
+        Bird's-eye x of the road point right below the camera (see :func:`camera_foot_px`).
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> be.size, round(be.xm_per_px, 4)
+    ((400, 300), 0.0247)
     """
 
     camera: CameraModel
@@ -43,39 +66,123 @@ class BirdsEye:
 
     @property
     def frame_size(self) -> tuple[int, int]:
+        """(width, height) of the raw frames this set-up takes, pixels."""
         return self.camera.image_size
 
     def warp(self, frame: np.ndarray, interpolation: int = cv2.INTER_LINEAR) -> np.ndarray:
-        """Raw (distorted) frame -> bird's-eye image, in one remap."""
+        """Map a raw (distorted) frame to the bird's-eye image, in one remap.
+
+        Parameters
+        ----------
+        frame : (H, W[, C]) ndarray
+            A raw frame of ``frame_size``.
+        interpolation : int, optional
+            An OpenCV interpolation flag.
+
+        Returns
+        -------
+        ndarray
+            The bird's-eye image, ``size`` pixels, same dtype and channels.
+        """
         return cv2.remap(frame, self.map1, self.map2, interpolation, borderMode=cv2.BORDER_REPLICATE)
 
     def warp_undistorted(self, image: np.ndarray) -> np.ndarray:
-        """An already undistorted frame -> bird's-eye image (for figures)."""
+        """Map an already undistorted frame to the bird's-eye image (for figures).
+
+        Parameters
+        ----------
+        image : ndarray
+            An undistorted frame of ``frame_size``.
+
+        Returns
+        -------
+        ndarray
+            The bird's-eye image, ``size`` pixels.
+        """
         return cv2.warpPerspective(image, self.matrix, self.size, flags=cv2.INTER_LINEAR)
 
     def to_frame(self, points: np.ndarray) -> np.ndarray:
-        """Bird's-eye pixels (Nx2) -> raw frame pixels (Nx2), exact inverse of :meth:`warp`."""
+        """Map bird's-eye pixels to raw frame pixels, the exact inverse of :meth:`warp`.
+
+        Parameters
+        ----------
+        points : (N, 2) array_like
+            Bird's-eye (x, y) pixels.
+
+        Returns
+        -------
+        (N, 2) float64 ndarray
+            Raw (distorted) frame (x, y) pixels.
+        """
         undist = cv2.perspectiveTransform(np.asarray(points, np.float64).reshape(-1, 1, 2), self.matrix_inv)
         return distort_points(self.camera, undist.reshape(-1, 2))
 
     def to_undistorted(self, points: np.ndarray) -> np.ndarray:
-        """Bird's-eye pixels (Nx2) -> undistorted frame pixels (Nx2)."""
+        """Map bird's-eye pixels to undistorted frame pixels.
+
+        Parameters
+        ----------
+        points : (N, 2) array_like
+            Bird's-eye (x, y) pixels.
+
+        Returns
+        -------
+        (N, 2) float64 ndarray
+            Undistorted frame (x, y) pixels.
+        """
         pts = np.asarray(points, np.float64).reshape(-1, 1, 2)
         return cv2.perspectiveTransform(pts, self.matrix_inv).reshape(-1, 2)
 
     def from_frame(self, points: np.ndarray) -> np.ndarray:
-        """Raw frame pixels (Nx2) -> bird's-eye pixels (Nx2)."""
+        """Map raw frame pixels to bird's-eye pixels.
+
+        Parameters
+        ----------
+        points : (N, 2) array_like
+            Raw (distorted) frame (x, y) pixels.
+
+        Returns
+        -------
+        (N, 2) float64 ndarray
+            Bird's-eye (x, y) pixels.
+        """
         undist = undistort_points(self.camera, points)
         return cv2.perspectiveTransform(undist.reshape(-1, 1, 2), self.matrix).reshape(-1, 2)
 
 
 def plane_pose(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: float,
                ym_per_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """The road plane seen by the camera, from the bird's-eye set-up.
+    """Recover the road plane seen by the camera from the bird's-eye set-up.
 
     A road point at metric bird's-eye coordinates (X, Y) = (u*xm, v*ym) images at
-    K [r1 r2 t] (X, Y, 1); returns r1, r2 (unit), t (metres, camera frame) and the scale
-    ratio |r1|/|r2| before normalising (1.0 when xm and ym agree with the camera).
+    K [r1 r2 t] (X, Y, 1).
+
+    Parameters
+    ----------
+    camera_matrix : (3, 3) ndarray
+        The camera's K.
+    matrix : (3, 3) ndarray
+        Homography from undistorted frame pixels to bird's-eye pixels.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+
+    Returns
+    -------
+    r1, r2 : (3,) ndarray
+        Unit directions of the bird's-eye x and y axes in the camera frame.
+    t : (3,) ndarray
+        The bird's-eye origin in the camera frame, metres.
+    ratio : float
+        |r1|/|r2| before normalising: 1.0 when ``xm_per_px`` and ``ym_per_px`` agree with
+        the camera.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> r1, r2, t, ratio = plane_pose(be.camera.camera_matrix, be.matrix, be.xm_per_px, be.ym_per_px)
+    >>> round(float(np.linalg.norm(r1)), 6), bool(t[2] > 0)
+    (1.0, True)
     """
     b = np.linalg.inv(camera_matrix) @ np.linalg.inv(matrix) @ np.diag([1.0 / xm_per_px, 1.0 / ym_per_px, 1.0])
     b = b * (1.0 if b[2, 2] >= 0 else -1.0)  # the homogeneous sign that puts the road in front
@@ -85,10 +192,32 @@ def plane_pose(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: float,
 
 def camera_foot_px(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: float,
                    ym_per_px: float) -> tuple[float, float]:
-    """Bird's-eye (x, y) of the road point right below the camera: the car's position.
+    """Find the bird's-eye (x, y) of the road point right below the camera: the car's position.
 
     Its x is the camera's lateral place, which the offset is measured from; it allows for the
     camera's yaw and principal point, unlike "the image's centre column".
+
+    Parameters
+    ----------
+    camera_matrix : (3, 3) ndarray
+        The camera's K.
+    matrix : (3, 3) ndarray
+        Homography from undistorted frame pixels to bird's-eye pixels.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+
+    Returns
+    -------
+    x_px, y_px : float
+        Bird's-eye pixels (y beyond the bottom row: the camera is behind the view).
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> x, y = camera_foot_px(be.camera.camera_matrix, be.matrix, be.xm_per_px, be.ym_per_px)
+    >>> round(x) == round(be.car_x_px), y > be.size[1]
+    (True, True)
     """
     r1, r2, t, _ = plane_pose(camera_matrix, matrix, xm_per_px, ym_per_px)
     # The bird's-eye axes need not be orthogonal on the road (rows of the frame run square to
@@ -108,7 +237,32 @@ def make_birdseye(
 ) -> BirdsEye:
     """Build the set-up and its combined undistort+warp remap tables.
 
-    ``src_px`` is in undistorted pixels of ``camera.image_size``.
+    Parameters
+    ----------
+    camera : CameraModel
+        The lens model at the frame size.
+    src_px : (4, 2) array_like
+        A road trapezoid in undistorted pixels of ``camera.image_size``.
+    dst_px : (4, 2) array_like
+        The rectangle it maps to, bird's-eye pixels.
+    size : tuple of int
+        (width, height) of the bird's-eye image, pixels.
+    xm_per_px, ym_per_px : float
+        Metres per bird's-eye pixel across and along the road.
+
+    Returns
+    -------
+    BirdsEye
+        The set-up; ``warp`` takes a raw frame to the view in one remap.
+
+    Examples
+    --------
+    >>> from lanefinder.camera import udacity_camera
+    >>> from lanefinder.config import default_dst
+    >>> src = [[585, 455], [700, 455], [1120, 720], [190, 720]]
+    >>> be = make_birdseye(udacity_camera(), src, default_dst(), (400, 300), 0.0185, 0.1)
+    >>> be.warp(np.zeros((720, 1280, 3), np.uint8)).shape
+    (300, 400, 3)
     """
     src = np.asarray(src_px, np.float32).reshape(4, 2)
     dst = np.asarray(dst_px, np.float32).reshape(4, 2)

@@ -43,12 +43,14 @@ class _Group(click.Group):
 def main() -> None:
     """Find the lane on a car's forward camera: calibrate, process images and videos.
 
+    \f
+
     Examples
     --------
     >>> from click.testing import CliRunner
     >>> CliRunner().invoke(main, ["--version"]).output.strip()
     'lanefinder, version 0.1.0'
-    """
+    """  # noqa: D301 (click cuts the help at the form feed, before the examples)
 
 
 def _config(path: str | None):

@@ -24,12 +24,42 @@ import numpy as np
 
 from .errors import LaneFinderError
 
+__all__ = [
+    "PIXEL_THRESH",
+    "PT_THRESH",
+    "EvalReport",
+    "bench_frame",
+    "evaluate",
+    "lane_angle",
+    "line_accuracy",
+    "read_ground_truth",
+    "read_predictions",
+]
+
 PIXEL_THRESH = 20.0
 PT_THRESH = 0.85
 
 
 def lane_angle(xs: np.ndarray, y_samples: np.ndarray) -> float:
-    """Angle (radians) of a lane from the least-squares line x = k*y + b over its valid points."""
+    """Give a lane's angle from the least-squares line x = k*y + b through its valid points.
+
+    Parameters
+    ----------
+    xs : (N,) ndarray
+        The lane's x at each sample row, pixels; negative where it is absent.
+    y_samples : (N,) ndarray
+        The sample rows, pixels.
+
+    Returns
+    -------
+    float
+        arctan(k), radians; 0.0 with fewer than two valid points.
+
+    Examples
+    --------
+    >>> round(lane_angle(np.array([100.0, 110.0, -2.0]), np.array([700, 690, 680])), 4)
+    -0.7854
+    """
     valid = xs >= 0
     xs, ys = xs[valid], y_samples[valid]
     if len(xs) > 1:
@@ -39,7 +69,25 @@ def lane_angle(xs: np.ndarray, y_samples: np.ndarray) -> float:
 
 
 def line_accuracy(pred: np.ndarray, gt: np.ndarray, thresh: float) -> float:
-    """Fraction of samples where |pred - gt| < thresh, with missing values (< 0) as -100."""
+    """Give the fraction of samples where |pred - gt| < thresh, missing values (< 0) read as -100.
+
+    Parameters
+    ----------
+    pred, gt : (N,) array_like
+        x per sample row, pixels; negative where absent.
+    thresh : float
+        The pixel threshold.
+
+    Returns
+    -------
+    float
+        In [0, 1]; a row absent from both counts as correct.
+
+    Examples
+    --------
+    >>> line_accuracy([100, 130, -2], [105, 100, -2], 20.0)
+    0.6666666666666666
+    """
     pred = np.where(np.asarray(pred, float) >= 0, pred, -100.0)
     gt = np.where(np.asarray(gt, float) >= 0, gt, -100.0)
     return float(np.sum(np.abs(pred - gt) < thresh) / len(gt))
@@ -47,7 +95,33 @@ def line_accuracy(pred: np.ndarray, gt: np.ndarray, thresh: float) -> float:
 
 def bench_frame(pred: list[list[float]], gt: list[list[float]], y_samples: list[int],
                 running_time_ms: float = 0.0) -> tuple[float, float, float]:
-    """(accuracy, FP rate, FN rate) of one frame, exactly as TuSimple's LaneEval.bench."""
+    """Score one frame exactly as TuSimple's ``LaneEval.bench``.
+
+    Parameters
+    ----------
+    pred, gt : list of list of float
+        Lanes, each an x per sample row (pixels, negative where absent).
+    y_samples : list of int
+        The sample rows, pixels.
+    running_time_ms : float, optional
+        Time taken for the frame; above 200 ms the frame scores (0, 0, 1).
+
+    Returns
+    -------
+    accuracy, fp, fn : float
+        Accuracy over the truth lanes, and false-positive and false-negative rates.
+
+    Raises
+    ------
+    LaneFinderError
+        When a predicted lane does not have one x per sample row.
+
+    Examples
+    --------
+    >>> ys = [700, 710, 720]
+    >>> bench_frame([[100, 101, 102]], [[105, 106, 107], [300, 301, 302]], ys)
+    (0.5, 0.0, 0.5)
+    """
     if any(len(p) != len(y_samples) for p in pred):
         raise LaneFinderError("format of lanes: every predicted lane needs one x per h_sample")
     if running_time_ms > 200 or len(gt) + 2 < len(pred):
@@ -74,6 +148,34 @@ def bench_frame(pred: list[list[float]], gt: list[list[float]], y_samples: list[
 
 @dataclass(frozen=True)
 class EvalReport:
+    """The figures of an evaluation.
+
+    Attributes
+    ----------
+    frames : int
+        Ground-truth frames scored.
+    accuracy, fp, fn : float
+        TuSimple accuracy, false-positive and false-negative rates (means over frames).
+    offset_err_median_m, offset_err_p90_m : float or None
+        Median and 90th percentile of |offset error|, metres.
+    curvature_err_median : float or None
+        Median |curvature error|, 1/m.
+    radius_rel_err_median : float or None
+        Median relative radius error where the true radius is below 1000 m.
+    catastrophic_rate : float
+        Fraction of frames with no lane, a line off by over 50 px, or offset off by over 0.5 m.
+    missing_frames : int
+        Ground-truth frames with no prediction at all.
+
+    Examples
+    --------
+    >>> gt = {"f": {"lanes": [[100, 101]], "h_samples": [700, 710], "offset_m": 0.1}}
+    >>> pred = {"f": {"lanes": [[102, 103]], "offset_m": 0.15}}
+    >>> report = evaluate(gt, pred)
+    >>> report.accuracy, round(report.offset_err_median_m, 3)
+    (1.0, 0.05)
+    """
+
     frames: int
     accuracy: float
     fp: float
@@ -86,6 +188,19 @@ class EvalReport:
     missing_frames: int
 
     def table(self, name: str = "") -> str:
+        """Format the figures as a two-line table.
+
+        Parameters
+        ----------
+        name : str, optional
+            The row's label.
+
+        Returns
+        -------
+        str
+            A header line and one row.
+        """
+
         def f(v: float | None, fmt: str) -> str:
             return "-" if v is None else format(v, fmt)
 
@@ -116,7 +231,31 @@ def _key(row: dict) -> str:
 
 
 def read_ground_truth(path: str | Path) -> dict[str, dict]:
-    """Ground truth by frame key: our gt.jsonl or a TuSimple label file (raw_file, lanes, h_samples)."""
+    """Read ground truth: our ``gt.jsonl`` or a TuSimple label file.
+
+    Parameters
+    ----------
+    path : str or Path
+        JSON Lines, each row with ``lanes`` and ``h_samples`` and a key: ``raw_file``
+        (TuSimple) or ``frame`` (lanefinder).
+
+    Returns
+    -------
+    dict of str to dict
+        The rows by frame key.
+
+    Raises
+    ------
+    LaneFinderError
+        When the file is missing, is not JSON Lines, or rows lack lanes, h_samples or a key.
+
+    Examples
+    --------
+    >>> read_ground_truth("no/gt.jsonl")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: not found: no/gt.jsonl
+    """
     rows = _read_jsonl(Path(path))
     for r in rows:
         if "lanes" not in r or "h_samples" not in r:
@@ -125,7 +264,31 @@ def read_ground_truth(path: str | Path) -> dict[str, dict]:
 
 
 def read_predictions(path: str | Path) -> dict[str, dict]:
-    """Predictions by frame key: lanefinder telemetry (CSV/JSONL) or TuSimple (raw_file, lanes, run_time)."""
+    """Read predictions: lanefinder telemetry (CSV or JSONL) or TuSimple predictions.
+
+    Parameters
+    ----------
+    path : str or Path
+        Telemetry rows (their ``left_x``/``right_x`` become the lanes) or TuSimple rows
+        (``raw_file``, ``lanes``, ``run_time``).
+
+    Returns
+    -------
+    dict of str to dict
+        The rows by frame key, each with ``lanes``.
+
+    Raises
+    ------
+    LaneFinderError
+        When the file is missing or unreadable.
+
+    Examples
+    --------
+    >>> read_predictions("no/telemetry.jsonl")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: not found: no/telemetry.jsonl
+    """
     from .telemetry import read_telemetry
 
     p = Path(path)
@@ -140,11 +303,35 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
 
 
 def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
-    """TuSimple figures over the ground-truth frames, and metre errors where the truth has them.
+    """Score predictions: TuSimple figures over the ground-truth frames, and errors in metres.
 
     A frame with no prediction counts as predicting no lane.  Catastrophic: no lane
     predicted, a truth line whose mean error over the rows both have is above 50 px (or that
     has no prediction at all), or an offset error above 0.5 m.
+
+    Parameters
+    ----------
+    gt : dict of str to dict
+        From :func:`read_ground_truth`; ``offset_m``, ``curvature_per_m`` and ``radius_m``
+        are used where present.
+    pred : dict of str to dict
+        From :func:`read_predictions`.
+
+    Returns
+    -------
+    EvalReport
+        The figures.
+
+    Raises
+    ------
+    LaneFinderError
+        When the ground truth has no frames.
+
+    Examples
+    --------
+    >>> gt = {"f": {"lanes": [[100, 101]], "h_samples": [700, 710]}}
+    >>> evaluate(gt, {}).catastrophic_rate
+    1.0
     """
     if not gt:
         raise LaneFinderError("the ground truth has no frames")

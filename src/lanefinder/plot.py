@@ -9,9 +9,35 @@ import numpy as np
 from .errors import LaneFinderError
 from .io import atomic_path
 
+__all__ = ["plot_telemetry"]
+
 
 def plot_telemetry(rows: list[dict], path: str | Path) -> None:
-    """Radius, offset, width and line confidences over time, one panel each (PNG)."""
+    """Plot radius, offset, width and line confidences over time, one panel each, as a PNG.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Telemetry rows (see :func:`lanefinder.telemetry.read_telemetry`); missing values may be
+        None.  Frames whose ``state`` is ``lost`` are shaded in the confidence panel.
+    path : str or Path
+        The PNG to write (atomically: never half-written).
+
+    Raises
+    ------
+    LaneFinderError
+        When ``rows`` is empty.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> rows = [{"time_s": t / 25, "radius_m": 900.0, "offset_m": 0.1, "width_m": 3.7,
+    ...          "left_conf": 0.9, "right_conf": 0.8, "state": "tracking"} for t in range(50)]
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "plot.png"
+    >>> plot_telemetry(rows, out)
+    >>> out.read_bytes()[1:4]
+    b'PNG'
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -27,17 +27,47 @@ import cv2
 import numpy as np
 
 from .camera import CameraModel, save_camera
+from .config import LANE_SPAN_PX, LANE_WIDTH_M, VIEW_SIZE_PX, default_dst
 from .errors import LaneFinderError
 from .io import atomic_write_text
 from .telemetry import h_samples as tusimple_rows
 
+__all__ = [
+    "DASH_M",
+    "GAP_M",
+    "MARKING_M",
+    "SCENARIOS",
+    "Conditions",
+    "FrameTruth",
+    "Mount",
+    "Renderer",
+    "Scenario",
+    "level_to_camera",
+    "write_sequence",
+]
+
+#: Dash and gap lengths of a dashed line, m (US highway: 10 ft dashes, 30 ft gaps).
 DASH_M, GAP_M = 3.0, 9.0
+#: Marking width, m.
 MARKING_M = 0.15
 
 
 @dataclass(frozen=True)
 class Mount:
-    """Where the camera sits: height above the road (m) and pitch down (degrees)."""
+    """Where the camera sits on the car.
+
+    Attributes
+    ----------
+    height_m : float
+        Height above the road, m.
+    pitch_deg : float
+        Pitch down, degrees.
+
+    Examples
+    --------
+    >>> Mount(height_m=1.4).pitch_deg
+    -1.44
+    """
 
     height_m: float = 1.26
     # Negative: looking slightly up, as the Udacity camera does (its vanishing row 418.6 is
@@ -47,7 +77,26 @@ class Mount:
 
 @dataclass(frozen=True)
 class Conditions:
-    """Hard conditions, each switchable."""
+    """Hard conditions, each switchable.
+
+    Attributes
+    ----------
+    tree_shadows, bridge_shadow : bool
+        Dappled tree shadows; a bridge's shadow every 90 m.
+    pavement_changes, seams : bool
+        Concrete and asphalt stretches; tar seams inside the lane.
+    glare : bool
+        Over-exposure and a bright glow.
+    worn : bool
+        Holes in the paint and missing dashes.
+    double_yellow : bool
+        A double yellow centre line instead of a single one.
+
+    Examples
+    --------
+    >>> Conditions(glare=True).worn
+    False
+    """
 
     tree_shadows: bool = False
     bridge_shadow: bool = False
@@ -63,6 +112,34 @@ class Scenario:
     """A sequence: geometry that varies smoothly with time, and its conditions.
 
     Each geometric quantity is ``base + amp * sin(2*pi*t/period_s + phase)``.
+
+    Attributes
+    ----------
+    name : str
+        The scenario's name.
+    speed_mps : float
+        Speed, m/s.
+    offset_m : tuple of float
+        Car's offset from the lane centre (base, amplitude), m (positive: right of centre).
+    heading : tuple of float
+        Lane direction relative to the car (base, amplitude), radians.
+    curvature : tuple of float
+        Lane curvature (base, amplitude), 1/m.
+    curvature_rate : tuple of float
+        Change of curvature with distance (base, amplitude), 1/m^2.
+    width_m : tuple of float
+        Lane width (base, amplitude), m.
+    period_s : float
+        Period of the variation, s.
+    conditions : Conditions
+        The hard conditions.
+    description : str
+        One line for ``lanefinder synth --list``.
+
+    Examples
+    --------
+    >>> SCENARIOS["sharp-curve"].speed_mps
+    12.0
     """
 
     name: str
@@ -97,7 +174,34 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
 
 @dataclass(frozen=True)
 class FrameTruth:
-    """Ground truth of one frame (see the module docstring for where it is measured)."""
+    """Ground truth of one frame (see the module docstring for where it is measured).
+
+    Attributes
+    ----------
+    frame : int
+        Frame index.
+    time_s : float
+        Time, s.
+    curvature_per_m : float
+        Signed curvature of the lane centre, 1/m.
+    radius_m : float or None
+        Radius, m; None on a straight road.
+    offset_m : float
+        Car's offset from the lane centre, m (positive: right of centre).
+    width_m : float
+        Lane width, m.
+    h_samples : list of int
+        The TuSimple rows, pixels.
+    left_x, right_x : list of float
+        Each line's x in the distorted frame at those rows, pixels; -2 where absent.
+
+    Examples
+    --------
+    >>> t = FrameTruth(frame=3, time_s=0.12, curvature_per_m=0.0, radius_m=None, offset_m=0.1,
+    ...                width_m=3.7, h_samples=[700], left_x=[300.0], right_x=[-2.0])
+    >>> t.to_json()["raw_file"], t.to_json()["lanes"]
+    ('frame/000003', [[300.0]])
+    """
 
     frame: int
     time_s: float
@@ -110,25 +214,73 @@ class FrameTruth:
     right_x: list[float]
 
     def to_json(self) -> dict:
+        """Give the row of ``gt.jsonl``: the fields, a TuSimple ``raw_file`` key and ``lanes``.
+
+        Returns
+        -------
+        dict
+            JSON-ready values.
+        """
         d = asdict(self)
         d["raw_file"] = f"frame/{self.frame:06d}"
         d["lanes"] = [lane for lane in (self.left_x, self.right_x) if any(v >= 0 for v in lane)]
         return d
 
 
-def _level_to_camera(pitch_deg: float) -> np.ndarray:
+def level_to_camera(pitch_deg: float) -> np.ndarray:
+    """Give the rotation from the car's level frame to the camera frame for a pitch.
+
+    Parameters
+    ----------
+    pitch_deg : float
+        Pitch down, degrees.
+
+    Returns
+    -------
+    (3, 3) ndarray
+        R with camera = R @ level (X right, Y down, Z forward in both).
+
+    Examples
+    --------
+    >>> level_to_camera(0.0).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, -0.0], [0.0, 0.0, 1.0]]
+    """
     p = math.radians(pitch_deg)
     return np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
 
 
 class Renderer:
-    """Renders frames of a scenario for one camera and mount."""
+    """Render the frames of a scenario, and their ground truth, for one camera and mount.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        The lens, at the frame size to render.
+    mount : Mount
+        Where the camera sits.
+    scenario : Scenario
+        What the road does.
+    seed : int, optional
+        Seed of the textures, wear and dash phase.
+    z_near, z_far : float, optional
+        The ground truth's reference distance and the view's far end, m.
+    supersample : int, optional
+        Samples per pixel along each axis.
+
+    Examples
+    --------
+    >>> from lanefinder.camera import CameraModel
+    >>> r = Renderer(CameraModel.ideal((320, 180)), Mount(), SCENARIOS["straight"])
+    >>> frame, truth = next(r.frames(1))
+    >>> frame.shape, round(truth.width_m, 3)
+    ((180, 320, 3), 3.739)
+    """
 
     def __init__(self, camera: CameraModel, mount: Mount, scenario: Scenario, seed: int = 0,
                  z_near: float = 6.0, z_far: float = 35.0, supersample: int = 2):
         self.camera, self.mount, self.sc = camera, mount, scenario
         self.z_near, self.z_far = z_near, z_far
-        self.rot = _level_to_camera(mount.pitch_deg)
+        self.rot = level_to_camera(mount.pitch_deg)
         w, h = camera.image_size
         rng = np.random.default_rng(seed)
         self.texture = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 1.5)
@@ -166,6 +318,19 @@ class Renderer:
 
     # -- geometry ---------------------------------------------------------------------------
     def geometry(self, t: float) -> dict:
+        """Give the road's geometry at a time.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        dict
+            ``offset`` (m), ``heading`` (rad), ``curvature`` (1/m), ``curvature_rate``
+            (1/m^2), ``width`` (m), ``travelled`` (m).
+        """
         sc = self.sc
         ph = 2 * math.pi * t / sc.period_s
 
@@ -180,9 +345,39 @@ class Renderer:
 
     @staticmethod
     def centre(g: dict, z: np.ndarray | float) -> np.ndarray | float:
+        """Give the lane centre's lateral position at distances ahead.
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry`.
+        z : float or ndarray
+            Distance ahead, m.
+
+        Returns
+        -------
+        float or ndarray
+            Lateral position, m (right positive).
+        """
         return -g["offset"] + g["heading"] * z + g["curvature"] / 2 * z**2 + g["curvature_rate"] / 6 * z**3
 
     def truth(self, index: int, t: float, g: dict) -> FrameTruth:
+        """Give the ground truth of a frame.
+
+        Parameters
+        ----------
+        index : int
+            Frame index.
+        t : float
+            Time, s.
+        g : dict
+            From :meth:`geometry` at ``t``.
+
+        Returns
+        -------
+        FrameTruth
+            Curvature, radius, offset and width at ``z_near``; line x at the TuSimple rows.
+        """
         z0 = self.z_near
         d1 = g["heading"] + g["curvature"] * z0 + g["curvature_rate"] / 2 * z0**2
         d2 = g["curvature"] + g["curvature_rate"] * z0
@@ -193,7 +388,7 @@ class Renderer:
                           self._line_rows(g, -0.5, rows), self._line_rows(g, 0.5, rows))
 
     def _line_rows(self, g: dict, side: float, rows: list[int]) -> list[float]:
-        """x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent."""
+        """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent."""
         z = np.linspace(0.5, self.z_far, 600)
         x = self.centre(g, z) + side * g["width"]
         pts = np.column_stack([x, np.full_like(z, self.mount.height_m), z])
@@ -232,7 +427,18 @@ class Renderer:
         return tile[(a * sa).astype(np.int64) % n, (b * sb).astype(np.int64) % n]
 
     def render(self, t: float) -> np.ndarray:
-        """The distorted BGR uint8 frame at time ``t`` (seconds)."""
+        """Render the distorted frame at a time.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        (H, W, 3) uint8 ndarray
+            The frame, BGR.
+        """
         g = self.geometry(t)
         c = self.sc.conditions
         X, Z, ground = self.X, self.Z, self.ground
@@ -297,26 +503,51 @@ class Renderer:
         return np.clip(out, 0, 255).astype(np.uint8)
 
     def frames(self, n: int, fps: float = 25.0) -> Iterator[tuple[np.ndarray, FrameTruth]]:
+        """Render a sequence.
+
+        Parameters
+        ----------
+        n : int
+            Frames.
+        fps : float, optional
+            Frame rate, frames/s.
+
+        Yields
+        ------
+        tuple of (ndarray, FrameTruth)
+            Each frame (BGR) with its truth.
+        """
         for i in range(n):
             t = i / fps
             g = self.geometry(t)
             yield self.render(t), self.truth(i, t, g)
 
     # -- the exact bird's-eye set-up --------------------------------------------------------
-    def birdseye_config(self, size: tuple[int, int] = (400, 300), lane_px: float = 150.0) -> dict:
-        """The config section that makes the bird's-eye an exact metric view of the road plane."""
-        w, _ = size
-        half = 3.7 / 2
+    def birdseye_config(self, size: tuple[int, int] = VIEW_SIZE_PX, lane_px: float = LANE_SPAN_PX) -> dict:
+        """Give the config section that makes the bird's-eye view an exact metric view of the road.
+
+        Parameters
+        ----------
+        size : tuple of int, optional
+            (width, height) of the view, pixels.
+        lane_px : float, optional
+            Pixels a lane of ``LANE_WIDTH_M`` spans across the view.
+
+        Returns
+        -------
+        dict
+            The ``birdseye`` section: the road from ``z_near`` to ``z_far`` ahead.
+        """
+        half = LANE_WIDTH_M / 2
         pts = np.array([[-half, self.mount.height_m, self.z_far], [half, self.mount.height_m, self.z_far],
                         [half, self.mount.height_m, self.z_near], [-half, self.mount.height_m, self.z_near]])
         cam = pts @ self.rot.T
         k = self.camera.camera_matrix
         src = (cam @ k.T)[:, :2] / (cam @ k.T)[:, 2:]
-        x0 = (w - lane_px) / 2
-        dst = [[x0, 0.0], [x0 + lane_px, 0.0], [x0 + lane_px, float(size[1])], [x0, float(size[1])]]
+        dst = [list(p) for p in default_dst(size, lane_px)]
         return {
             "reference_size": list(self.size), "src": [[round(float(x), 4), round(float(y), 4)] for x, y in src],
-            "size": list(size), "dst": dst, "xm_per_px": 3.7 / lane_px,
+            "size": list(size), "dst": dst, "xm_per_px": LANE_WIDTH_M / lane_px,
             "ym_per_px": (self.z_far - self.z_near) / size[1],
         }
 
@@ -324,9 +555,50 @@ class Renderer:
 def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,
                    camera: CameraModel | None = None, mount: Mount | None = None, fps: int = 25,
                    progress: bool = False) -> Path:
-    """Write video.mp4, gt.jsonl, camera.json and config.toml (the exact set-up) to ``out_dir``."""
-    from .config import config_from_dict, dump_config
+    """Write a synthetic sequence: video.mp4, gt.jsonl, camera.json, config.toml and scenario.json.
+
+    Parameters
+    ----------
+    scenario : str or Scenario
+        A name from ``SCENARIOS`` or a scenario.
+    n_frames : int
+        Frames to render.
+    out_dir : str or Path
+        The folder (created if needed).
+    seed : int, optional
+        Seed of the appearance.
+    camera : CameraModel, optional
+        The lens; default the Udacity camera.
+    mount : Mount, optional
+        Where it sits; default :class:`Mount`.
+    fps : int, optional
+        Frame rate, frames/s.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    Path
+        The folder.
+
+    Raises
+    ------
+    LaneFinderError
+        For an unknown scenario or fewer than one frame.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = write_sequence("straight", 2, tempfile.mkdtemp())  # doctest: +SKIP
+    >>> sorted(p.name for p in out.iterdir())  # doctest: +SKIP
+    ['camera.json', 'config.toml', 'gt.jsonl', 'scenario.json', 'video.mp4']
+    >>> write_sequence("moon", 2, tempfile.mkdtemp())
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: unknown scenario 'moon'; choose from straight, curve, ...
+    """
     from .camera import udacity_camera
+    from .config import config_from_dict, dump_config
     from .video import VideoInfo, VideoSink
 
     if isinstance(scenario, str):

@@ -19,10 +19,32 @@ import numpy as np
 from .errors import LaneFinderError
 from .io import publish
 
+__all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames"]
+
 
 @dataclass(frozen=True)
 class VideoInfo:
-    """Size (pixels), frame rate (frames/s, exact fraction), frame count (may be an estimate), duration (s)."""
+    """What a video is: size, frame rate, length and codec.
+
+    Attributes
+    ----------
+    width, height : int
+        Frame size, pixels.
+    fps : Fraction
+        Frame rate, frames per second, exact.
+    total_frames : int
+        Frame count (from the container, or estimated from duration and rate).
+    duration_s : float
+        Duration, seconds (0.0 when the container does not say).
+    codec : str
+        The video codec's name, e.g. ``h264``.
+
+    Examples
+    --------
+    >>> info = VideoInfo.from_path("data/clips/project_37-47s.mp4")
+    >>> info.size, info.fps, info.codec
+    ((1280, 720), Fraction(25, 1), 'h264')
+    """
 
     width: int
     height: int
@@ -33,10 +55,28 @@ class VideoInfo:
 
     @property
     def size(self) -> tuple[int, int]:
+        """(width, height), pixels."""
         return self.width, self.height
 
     @classmethod
     def from_path(cls, path: str | Path) -> VideoInfo:
+        """Read the facts of the first video stream of a file.
+
+        Parameters
+        ----------
+        path : str or Path
+            Any container and codec FFmpeg reads.
+
+        Returns
+        -------
+        VideoInfo
+            Its size, rate, frame count, duration and codec.
+
+        Raises
+        ------
+        LaneFinderError
+            When the file is missing, unreadable, or has no video stream.
+        """
         with _open(path) as c:
             s = c.streams.video[0]
             fps = Fraction(s.average_rate or s.guessed_rate or 25)
@@ -66,7 +106,23 @@ def _open(path: str | Path):
 
 @dataclass(frozen=True)
 class Frame:
-    """A decoded frame: index from the start of the video, time in seconds, BGR uint8 pixels."""
+    """A decoded frame.
+
+    Attributes
+    ----------
+    index : int
+        Frame number from the start of the video (time times rate, rounded).
+    time_s : float
+        Presentation time from the start of the video, seconds.
+    image : (H, W, 3) uint8 ndarray
+        The pixels, BGR.
+
+    Examples
+    --------
+    >>> f = Frame(index=0, time_s=0.0, image=np.zeros((720, 1280, 3), np.uint8))
+    >>> f.image.shape
+    (720, 1280, 3)
+    """
 
     index: int
     time_s: float
@@ -75,6 +131,25 @@ class Frame:
 
 @dataclass
 class DecodeStats:
+    """What went wrong while decoding, filled in by :func:`frames` as it goes.
+
+    Attributes
+    ----------
+    damaged : int
+        Packets that did not decode and were skipped.
+    decoded : int
+        Frames decoded and yielded.
+    truncated : bool
+        True when the file ended early (cut short or unreadable past some point).
+
+    Examples
+    --------
+    >>> stats = DecodeStats()
+    >>> n = sum(1 for _ in frames("data/clips/project_37-47s.mp4", end_s=1.0, stats=stats))
+    >>> n, stats.decoded, stats.damaged, stats.truncated
+    (25, 25, 0, False)
+    """
+
     damaged: int = 0
     decoded: int = 0
     truncated: bool = False
@@ -82,10 +157,40 @@ class DecodeStats:
 
 def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, threads: int = 0,
            stats: DecodeStats | None = None) -> Iterator[Frame]:
-    """Decode ``path`` from ``start_s`` to ``end_s`` (seconds) as BGR frames.
+    """Decode a video as BGR frames, from ``start_s`` to ``end_s``.
 
     Damaged packets are skipped and counted in ``stats.damaged``; a file cut short ends the
     generator early with ``stats.truncated`` set, after the frames that could be read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The video.
+    start_s : float, optional
+        Where to start, seconds (seeks to the keyframe before, then skips to it).
+    end_s : float, optional
+        Where to stop, seconds (exclusive); default the end.
+    threads : int, optional
+        Decoder threads; 0 lets FFmpeg choose.
+    stats : DecodeStats, optional
+        Filled in while decoding.
+
+    Yields
+    ------
+    Frame
+        In presentation order.  Memory stays flat: one frame at a time.
+
+    Raises
+    ------
+    LaneFinderError
+        When the file is missing, unreadable, or has no video stream.
+
+    Examples
+    --------
+    >>> clip = frames("data/clips/project_37-47s.mp4", start_s=2.0, end_s=3.0)
+    >>> first = next(clip)
+    >>> first.index, first.time_s, first.image.shape
+    (50, 2.0, (720, 1280, 3))
     """
     stats = stats if stats is not None else DecodeStats()
     with _open(path) as c:
@@ -122,11 +227,42 @@ def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, t
 
 
 class VideoSink:
-    """H.264 MP4 writer.  Frames go to a hidden temporary file beside ``path``; :meth:`close`
-    finishes the file and moves it into place, so ``path`` is never a half-written video.
+    """Write an H.264 MP4 that is never half-written.
 
-    Use as a context manager: on an exception or Ctrl-C the frames written so far are still
-    finished into a playable ``path`` (``partial`` is then True).
+    Frames go to a hidden temporary file beside ``path``; :meth:`close` finishes the file and
+    moves it into place.  Used as a context manager, an exception or Ctrl-C still finishes the
+    frames written so far into a playable ``path``; :meth:`discard` drops the output instead.
+
+    Parameters
+    ----------
+    path : str or Path
+        The MP4 to write; its folder is created if needed.
+    info : VideoInfo
+        Gives the size and frame rate.
+    preset : str, optional
+        The x264 speed preset.
+    crf : int, optional
+        The x264 constant rate factor (lower is better and larger).
+    threads : int, optional
+        Encoder threads; 0 lets FFmpeg choose.
+
+    Attributes
+    ----------
+    path : Path
+        The final file.
+    frames_written : int
+        Frames written so far.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "black.mp4"
+    >>> info = VideoInfo(width=64, height=48, fps=Fraction(25), total_frames=5, duration_s=0.2, codec="h264")
+    >>> with VideoSink(out, info) as sink:
+    ...     for _ in range(5):
+    ...         sink.write(np.zeros((48, 64, 3), np.uint8))
+    >>> VideoInfo.from_path(out).total_frames
+    5
     """
 
     def __init__(self, path: str | Path, info: VideoInfo, preset: str = "veryfast", crf: int = 23,
@@ -137,7 +273,6 @@ class VideoSink:
         os.close(fd)
         self.tmp = Path(tmp)
         self.frames_written = 0
-        self.partial = False
         self._container = av.open(str(self.tmp), "w", format="mp4")
         rate = info.fps.limit_denominator(100000)
         self._stream = self._container.add_stream("libx264", rate=rate)
@@ -149,6 +284,13 @@ class VideoSink:
         self._closed = False
 
     def write(self, image: np.ndarray) -> None:
+        """Encode one frame.
+
+        Parameters
+        ----------
+        image : (height, width, 3) uint8 ndarray
+            The frame, BGR, at the size given by ``info``.
+        """
         frame = av.VideoFrame.from_ndarray(image, format="bgr24")
         frame.pts = self.frames_written
         self._container.mux(self._stream.encode(frame))
@@ -178,6 +320,4 @@ class VideoSink:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is not None:
-            self.partial = True
         self.close()
