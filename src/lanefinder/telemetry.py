@@ -350,9 +350,11 @@ def read_telemetry(path: str | Path) -> list[dict]:
 
     Examples
     --------
-    >>> rows = read_telemetry("data/clips/project_37-47s.csv")  # doctest: +SKIP
-    >>> rows[0]["state"]  # doctest: +SKIP
-    're-detect'
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "t.jsonl"
+    >>> _ = path.write_text('{"frame": 0, "state": "tracking", "offset_m": 0.12}')
+    >>> read_telemetry(path)
+    [{'frame': 0, 'state': 'tracking', 'offset_m': 0.12}]
     """
     p = Path(path)
     if not p.is_file():
