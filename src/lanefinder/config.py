@@ -24,6 +24,7 @@ __all__ = [
     "ColorConfig",
     "Config",
     "FitConfig",
+    "LimitsConfig",
     "RenderConfig",
     "RidgeConfig",
     "SearchConfig",
@@ -43,6 +44,10 @@ PositiveInt = Annotated[int, Field(gt=0)]
 PositiveFloat = Annotated[float, Field(gt=0)]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 Byte = Annotated[int, Field(ge=0, le=255)]
+#: A frame's width or height, pixels (16K video at most).
+FrameSide = Annotated[int, Field(ge=16, le=16384)]
+#: A bird's-eye view's width or height, pixels.
+ViewSide = Annotated[int, Field(ge=16, le=8192)]
 
 #: Lane width the default set-up is scaled by: 3.7 m between line centres (12 ft lanes).
 LANE_WIDTH_M = 3.7
@@ -79,7 +84,7 @@ def default_dst(size: tuple[int, int] = VIEW_SIZE_PX,
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class CameraConfig(_Section):
@@ -130,9 +135,9 @@ class BirdseyeConfig(_Section):
     ((400, 300), 0.02467)
     """
 
-    reference_size: tuple[PositiveInt, PositiveInt] = (1280, 720)
+    reference_size: tuple[FrameSide, FrameSide] = (1280, 720)
     src: tuple[Point, Point, Point, Point] = ((581.3, 460.0), (702.9, 460.0), (1034.0, 675.0), (280.5, 675.0))
-    size: tuple[PositiveInt, PositiveInt] = VIEW_SIZE_PX
+    size: tuple[ViewSide, ViewSide] = VIEW_SIZE_PX
     dst: tuple[Point, Point, Point, Point] = default_dst()
     xm_per_px: PositiveFloat = LANE_WIDTH_M / LANE_SPAN_PX
     ym_per_px: PositiveFloat = 0.09853
@@ -551,7 +556,7 @@ class RenderConfig(_Section):
     left_color: tuple[Byte, Byte, Byte] = (0, 0, 255)
     right_color: tuple[Byte, Byte, Byte] = (255, 80, 0)
     alpha: Fraction = 0.3
-    line_thickness: PositiveInt = 6
+    line_thickness: Annotated[int, Field(ge=1, le=50)] = 6
     hud: bool = True
 
 
@@ -578,6 +583,24 @@ class VideoConfig(_Section):
     threads: Annotated[int, Field(ge=0, le=64)] = 0
 
 
+class LimitsConfig(_Section):
+    """What a run may use.
+
+    Attributes
+    ----------
+    memory_mb : int
+        Memory a run may need for its frames and views, MB; a frame or view size that would
+        need more is refused before anything is allocated.
+
+    Examples
+    --------
+    >>> LimitsConfig().memory_mb
+    2048
+    """
+
+    memory_mb: Annotated[int, Field(ge=64, le=1_048_576)] = 2048
+
+
 class Config(_Section):
     """All tunables of lanefinder, one validated section per stage.
 
@@ -593,6 +616,7 @@ class Config(_Section):
     tracking : TrackingConfig
     render : RenderConfig
     video : VideoConfig
+    limits : LimitsConfig
 
     Examples
     --------
@@ -609,6 +633,7 @@ class Config(_Section):
     tracking: TrackingConfig = TrackingConfig()
     render: RenderConfig = RenderConfig()
     video: VideoConfig = VideoConfig()
+    limits: LimitsConfig = LimitsConfig()
 
 
 def _format_error(e: ValidationError, source: str) -> str:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import tempfile
+import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -15,9 +17,11 @@ from .errors import LaneFinderError
 
 __all__ = [
     "IMAGE_SUFFIXES",
+    "OutputSet",
     "atomic_path",
     "atomic_write_text",
     "check_not_input",
+    "encode_image",
     "list_images",
     "publish",
     "read_image",
@@ -146,6 +150,137 @@ def publish(tmp: str | Path, dest: str | Path) -> None:
 
 
 @contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM back while files are put in place or removed (main thread only)."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if main else None
+    try:
+        yield
+    finally:
+        if old is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _make_folder(folder: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise LaneFinderError(f"cannot create the folder {folder}: a file is in the way") from None
+    except OSError as e:
+        raise LaneFinderError(f"cannot create the folder {folder}: {e.strerror or e}") from None
+
+
+class OutputSet:
+    """All the outputs of one command, put in place together only when everything succeeded.
+
+    Each output is written to a hidden temporary file beside it (:meth:`add`); :meth:`commit`
+    moves them all into place, :meth:`discard` removes them and leaves whatever was at the
+    destinations untouched.  As a context manager it commits on success and discards on any
+    exception, Ctrl-C included; Ctrl-C and SIGTERM are held back while it does either, so a
+    second Ctrl-C leaves no hidden file behind.
+
+    Parameters
+    ----------
+    inputs : iterable of str or Path, optional
+        The command's inputs: no output may name one of them.
+
+    Attributes
+    ----------
+    outputs : list of Path
+        The destinations registered so far.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> with OutputSet() as outs:
+    ...     _ = outs.add(d / "a.txt").write_text("a")
+    ...     _ = outs.add(d / "b.txt").write_text("b")
+    ...     sorted(p.name for p in d.iterdir() if not p.name.startswith("."))
+    []
+    >>> sorted(p.name for p in d.iterdir())
+    ['a.txt', 'b.txt']
+    >>> OutputSet(inputs=[d / "a.txt"]).add(d / "a.txt")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: refusing to overwrite the input .../a.txt; choose another output path
+    """
+
+    def __init__(self, inputs: Iterable[str | Path] = ()):
+        self._inputs = {Path(p).resolve(): Path(p) for p in inputs}
+        self._pending: list[tuple[Path, Path]] = []
+        self.outputs: list[Path] = []
+
+    def add(self, path: str | Path, suffix: str | None = None) -> Path:
+        """Register an output and give the hidden temporary file to write it to.
+
+        Parameters
+        ----------
+        path : str or Path
+            The destination; its folder is created if needed.
+        suffix : str, optional
+            The temporary file's suffix (writers that pick a format by suffix need the right
+            one); default the suffix of ``path``.
+
+        Returns
+        -------
+        Path
+            The temporary file (created empty), beside ``path``.
+
+        Raises
+        ------
+        LaneFinderError
+            When ``path`` names an input, another output or a folder, or its folder cannot be
+            made or written.
+        """
+        dest = Path(path)
+        real = dest.resolve()
+        if real in self._inputs:
+            raise LaneFinderError(f"refusing to overwrite the input {self._inputs[real]}; choose another output path")
+        if any(real == o.resolve() for o in self.outputs):
+            raise LaneFinderError(f"two outputs would be written to the same file: {dest}")
+        if dest.is_dir():
+            raise LaneFinderError(f"the output {dest} is a folder; give a file name")
+        _make_folder(dest.parent)
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=suffix or dest.suffix, dir=dest.parent)
+        except OSError as e:
+            raise LaneFinderError(f"cannot write in {dest.parent}: {e.strerror or e}") from None
+        os.close(fd)
+        self._pending.append((Path(tmp), dest))
+        self.outputs.append(dest)
+        return Path(tmp)
+
+    def commit(self) -> None:
+        """Move every finished output into place, with ordinary permissions."""
+        with _signals_held():
+            try:
+                for tmp, dest in self._pending:
+                    publish(tmp, dest)
+            except OSError as e:
+                raise LaneFinderError(f"cannot put {dest} in place: {e.strerror or e}") from None
+            finally:
+                self.discard()
+
+    def discard(self) -> None:
+        """Remove the temporary files that are left; the destinations stay as they were."""
+        with _signals_held():
+            for tmp, _ in self._pending:
+                tmp.unlink(missing_ok=True)
+            self._pending = []
+
+    def __enter__(self) -> OutputSet:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
+
+
+@contextlib.contextmanager
 def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
     """Give a temporary path beside ``path``, moved into place only when the block succeeds.
 
@@ -171,19 +306,11 @@ def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
     >>> out.read_text()
     'all or nothing'
     """
-    dest = Path(path)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=suffix or dest.suffix, dir=dest.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        publish(tmp_path, dest)
-    finally:
-        tmp_path.unlink(missing_ok=True)
+    with OutputSet() as outs:
+        yield outs.add(path, suffix)
 
 
-def atomic_write_text(path: str | Path, text: str) -> None:
+def atomic_write_text(path: str | Path, text: str, outputs: OutputSet | None = None) -> None:
     """Write a text file atomically: readers see the old file or the whole new one.
 
     Parameters
@@ -192,6 +319,8 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         The file to write.
     text : str
         Its content.
+    outputs : OutputSet, optional
+        Write it as part of this set (put in place when the set commits).
 
     Examples
     --------
@@ -201,11 +330,21 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     >>> out.read_text()
     'hello'
     """
+    if outputs is not None:
+        _write_text(outputs.add(path), text, path)
+        return
     with atomic_path(path) as tmp:
+        _write_text(tmp, text, path)
+
+
+def _write_text(tmp: Path, text: str, dest: str | Path) -> None:
+    try:
         tmp.write_text(text)
+    except OSError as e:
+        raise LaneFinderError(f"cannot write {dest}: {e.strerror or e}") from None
 
 
-def write_image(path: str | Path, image: np.ndarray) -> None:
+def write_image(path: str | Path, image: np.ndarray, outputs: OutputSet | None = None) -> None:
     """Write an image atomically; the format follows the suffix.
 
     Parameters
@@ -214,11 +353,13 @@ def write_image(path: str | Path, image: np.ndarray) -> None:
         The file to write (``.png`` when it has no suffix).
     image : ndarray
         The image, BGR or grey.
+    outputs : OutputSet, optional
+        Write it as part of this set (put in place when the set commits).
 
     Raises
     ------
     LaneFinderError
-        When OpenCV cannot encode the image in that format.
+        When OpenCV cannot encode the image in that format, or the file cannot be written.
 
     Examples
     --------
@@ -229,11 +370,60 @@ def write_image(path: str | Path, image: np.ndarray) -> None:
     (4, 6, 3)
     """
     dest = Path(path)
-    ok, buf = cv2.imencode(dest.suffix or ".png", image)
-    if not ok:
-        raise LaneFinderError(f"cannot encode image as {dest.suffix}: {dest}")
+    buf = encode_image(dest, image)
+    if outputs is not None:
+        _write_bytes(outputs.add(dest), buf, dest)
+        return
     with atomic_path(dest) as tmp:
+        _write_bytes(tmp, buf, dest)
+
+
+def encode_image(path: str | Path, image: np.ndarray) -> np.ndarray:
+    """Encode an image in the format its path's suffix names.
+
+    Parameters
+    ----------
+    path : str or Path
+        Only its suffix is used (``.png`` when it has none).
+    image : ndarray
+        The image, BGR or grey.
+
+    Returns
+    -------
+    (N,) uint8 ndarray
+        The encoded bytes.
+
+    Raises
+    ------
+    LaneFinderError
+        When the suffix is not an image format OpenCV writes.
+
+    Examples
+    --------
+    >>> encode_image("a.png", np.zeros((4, 6), np.uint8))[1:4].tobytes()
+    b'PNG'
+    >>> encode_image("a.mp4", np.zeros((4, 6), np.uint8))
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: cannot write an image as .mp4: a.mp4 (use .png or .jpg)
+    """
+    dest = Path(path)
+    suffix = dest.suffix.lower() or ".png"
+    ok, buf = False, None
+    if suffix in IMAGE_SUFFIXES:
+        with contextlib.suppress(cv2.error):
+            ok, buf = cv2.imencode(suffix, image)
+    if not ok or buf is None:
+        raise LaneFinderError(f"cannot write an image as {dest.suffix or 'a file without a suffix'}: {dest} "
+                              "(use .png or .jpg)")
+    return buf
+
+
+def _write_bytes(tmp: Path, buf: np.ndarray, dest: Path) -> None:
+    try:
         buf.tofile(tmp)
+    except OSError as e:
+        raise LaneFinderError(f"cannot write {dest}: {e.strerror or e}") from None
 
 
 def check_not_input(output: str | Path, inputs: Iterable[str | Path]) -> None:

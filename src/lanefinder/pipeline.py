@@ -19,6 +19,7 @@ from .config import Config
 from .errors import LaneFinderError
 from .geometry import Scale, lane_geometry
 from .lane import LaneResult
+from .limits import check_memory
 from .measure import Measurer, measure
 from .search import Pixels
 from .threshold import threshold
@@ -99,6 +100,7 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
             f"frame size {w}x{h} has another aspect ratio than the configured set-up ({rw}x{rh}); "
             "run 'lanefinder setup' for this camera"
         )
+    check_memory(cfg, (w, h))
     cam = camera.scaled_to(frame_size)
     src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)

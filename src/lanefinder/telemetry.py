@@ -15,12 +15,12 @@ fields after its own ``image``, ``output`` and ``ms``.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
 import math
-import os
-import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ import numpy as np
 from .birdseye import BirdsEye
 from .errors import LaneFinderError
 from .geometry import poly_x
-from .io import publish
+from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
 
 __all__ = [
@@ -236,6 +236,9 @@ class TelemetryWriter:
     ----------
     path : str or Path
         The telemetry file: ``.csv`` or ``.jsonl``.
+    outputs : OutputSet, optional
+        Write the file as part of this set: :meth:`close` then finishes it and the set puts
+        it in place together with the command's other outputs.
 
     Attributes
     ----------
@@ -247,7 +250,7 @@ class TelemetryWriter:
     Raises
     ------
     LaneFinderError
-        For another suffix.
+        For another suffix, or when the file cannot be written.
 
     Examples
     --------
@@ -259,20 +262,27 @@ class TelemetryWriter:
     [{'frame': 0, 'state': 'lost'}]
     """
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, outputs: OutputSet | None = None):
         self.path = Path(path)
         suffix = self.path.suffix.lower()
         if suffix not in (".csv", ".jsonl"):
             raise LaneFinderError(f"telemetry file must end in .csv or .jsonl: {self.path}")
         self.csv = suffix == ".csv"
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.stem}.", suffix=suffix, dir=self.path.parent)
-        self.tmp = Path(tmp)
-        self._f = os.fdopen(fd, "w", newline="")
+        self._own = outputs is None
+        self._outputs = outputs if outputs is not None else OutputSet()
+        self.tmp = self._outputs.add(self.path)
+        self._f = self.tmp.open("w", newline="")
         self._csv = csv.DictWriter(self._f, fieldnames=FIELDS) if self.csv else None
-        if self._csv:
-            self._csv.writeheader()
         self.rows = 0
+        self._guard(lambda: self._csv.writeheader() if self._csv else None)
+
+    def _guard(self, write: Callable[[], object]) -> None:
+        """Run a write; a failing disk becomes a LaneFinderError and drops the file."""
+        try:
+            write()
+        except OSError as e:
+            self.discard()
+            raise LaneFinderError(f"cannot write the telemetry {self.path}: {e.strerror or e}") from None
 
     def write(self, row: dict) -> None:
         """Append one row.
@@ -282,26 +292,40 @@ class TelemetryWriter:
         row : dict
             Fields of :data:`FIELDS` (lists as lists, missing numbers as None).
         """
-        if self._csv:
-            self._csv.writerow({k: (json.dumps(v) if k in LIST_FIELDS and v is not None else
-                                    ("" if v is None else v)) for k, v in row.items()})
-        else:
-            self._f.write(json.dumps(row) + "\n")
-        self._f.flush()
+        def put() -> None:
+            if self._csv:
+                self._csv.writerow({k: (json.dumps(v) if k in LIST_FIELDS and v is not None else
+                                        ("" if v is None else v)) for k, v in row.items()})
+            else:
+                self._f.write(json.dumps(row) + "\n")
+            self._f.flush()
+
+        self._guard(put)
         self.rows += 1
 
     def close(self) -> None:
-        """Finish the file and move it into place (once)."""
+        """Finish the file and move it into place (once), unless it belongs to a set.
+
+        Raises
+        ------
+        LaneFinderError
+            When the file cannot be finished; nothing is put in place.
+        """
         if self._f.closed:
             return
-        self._f.close()
-        publish(self.tmp, self.path)
+        self._guard(self._f.close)
+        if self._own:
+            self._outputs.commit()
 
     def discard(self) -> None:
         """Drop the hidden file; whatever was at ``path`` stays as it was."""
         if not self._f.closed:
-            self._f.close()
-        self.tmp.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                self._f.close()
+        if self._own:
+            self._outputs.discard()
+        else:
+            self.tmp.unlink(missing_ok=True)
 
     def __enter__(self) -> TelemetryWriter:
         return self

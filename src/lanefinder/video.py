@@ -6,18 +6,17 @@ Modelled on supervision's VideoInfo / get_video_frames_generator / VideoSink.
 from __future__ import annotations
 
 import contextlib
-import os
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
 
 import av
+import cv2
 import numpy as np
 
 from .errors import LaneFinderError
-from .io import publish
+from .io import OutputSet
 
 __all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames"]
 
@@ -90,18 +89,43 @@ class VideoInfo:
             return cls(s.codec_context.width, s.codec_context.height, fps, frames, duration, s.codec_context.name)
 
 
+# Containers that hold a still image, not a video.
+_IMAGE_FORMATS = ("image2", "png_pipe", "jpeg_pipe", "bmp_pipe", "tiff_pipe", "webp_pipe", "gif", "apng")
+
+
 def _open(path: str | Path):
     p = Path(path)
     if not p.is_file():
         raise LaneFinderError(f"video not found: {p}")
     try:
         c = av.open(str(p))
-    except (av.error.FFmpegError, OSError, UnicodeDecodeError) as e:
-        raise LaneFinderError(f"cannot open video {p}: {e}") from None
-    if not c.streams.video:
+    except (av.error.FFmpegError, OSError, UnicodeDecodeError, ValueError) as e:
+        hint = ""
+        if p.suffix.lower() in (".mp4", ".mov", ".m4v") and _index_missing(p):
+            hint = ("the file is cut short before its index (moov), which this file keeps at the end, "
+                    "so no frame can be found; ")
+        raise LaneFinderError(f"cannot open video {p}: {hint}{_reason(e)}") from None
+    fmt = c.format.name if c.format else ""
+    has_video = bool(c.streams.video)
+    still = any(f in fmt.split(",") for f in _IMAGE_FORMATS) or fmt.endswith("_pipe")
+    if not has_video or still:
         c.close()
+        if has_video:
+            raise LaneFinderError(f"{p} is a still image, not a video: use `lanefinder image`")
         raise LaneFinderError(f"{p} has no video stream")
     return c
+
+
+def _index_missing(p: Path) -> bool:
+    """Tell whether an MP4 lacks its index (no ``moov`` box in the first or last 16 MB)."""
+    try:
+        with p.open("rb") as f:
+            head = f.read(16 << 20)
+            f.seek(max(0, p.stat().st_size - (16 << 20)))
+            tail = f.read()
+    except OSError:
+        return False
+    return head[4:8] == b"ftyp" and b"mdat" in head and b"moov" not in head and b"moov" not in tail
 
 
 @dataclass(frozen=True)
@@ -232,6 +256,8 @@ class VideoSink:
     Frames go to a hidden temporary file beside ``path``; :meth:`close` finishes the file and
     moves it into place.  Used as a context manager, an exception or Ctrl-C still finishes the
     frames written so far into a playable ``path``; :meth:`discard` drops the output instead.
+    H.264 needs an even width and height: a frame of odd size is padded by one pixel
+    (its last row or column repeated), and ``padded`` says so.
 
     Parameters
     ----------
@@ -245,6 +271,9 @@ class VideoSink:
         The x264 constant rate factor (lower is better and larger).
     threads : int, optional
         Encoder threads; 0 lets FFmpeg choose.
+    outputs : OutputSet, optional
+        Write the video as part of this set: :meth:`close` then finishes the file and the set
+        puts it in place together with the command's other outputs.
 
     Attributes
     ----------
@@ -252,36 +281,51 @@ class VideoSink:
         The final file.
     frames_written : int
         Frames written so far.
+    size : tuple of int
+        (width, height) encoded, pixels: ``info.size`` rounded up to even numbers.
+    padded : bool
+        True when ``size`` differs from ``info.size``.
+
+    Raises
+    ------
+    LaneFinderError
+        When the encoder cannot be opened or the file cannot be written.
 
     Examples
     --------
     >>> import tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "black.mp4"
-    >>> info = VideoInfo(width=64, height=48, fps=Fraction(25), total_frames=5, duration_s=0.2, codec="h264")
+    >>> info = VideoInfo(width=65, height=48, fps=Fraction(25), total_frames=5, duration_s=0.2, codec="h264")
     >>> with VideoSink(out, info) as sink:
     ...     for _ in range(5):
-    ...         sink.write(np.zeros((48, 64, 3), np.uint8))
-    >>> VideoInfo.from_path(out).total_frames
-    5
+    ...         sink.write(np.zeros((48, 65, 3), np.uint8))
+    >>> sink.padded, VideoInfo.from_path(out).size, VideoInfo.from_path(out).total_frames
+    (True, (66, 48), 5)
     """
 
     def __init__(self, path: str | Path, info: VideoInfo, preset: str = "veryfast", crf: int = 23,
-                 threads: int = 0):
+                 threads: int = 0, outputs: OutputSet | None = None):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.stem}.", suffix=".partial.mp4", dir=self.path.parent)
-        os.close(fd)
-        self.tmp = Path(tmp)
+        self._own = outputs is None
+        self._outputs = outputs if outputs is not None else OutputSet()
+        self.tmp = self._outputs.add(self.path, suffix=".mp4")
         self.frames_written = 0
-        self._container = av.open(str(self.tmp), "w", format="mp4")
-        rate = info.fps.limit_denominator(100000)
-        self._stream = self._container.add_stream("libx264", rate=rate)
-        self._stream.width, self._stream.height = info.width, info.height
-        self._stream.pix_fmt = "yuv420p"
-        self._stream.time_base = 1 / rate
-        self._stream.codec_context.thread_count = threads
-        self._stream.options = {"crf": str(crf), "preset": preset}
+        self.size = (info.width + info.width % 2, info.height + info.height % 2)
+        self.padded = self.size != (info.width, info.height)
         self._closed = False
+        try:
+            self._container = av.open(str(self.tmp), "w", format="mp4")
+            rate = info.fps.limit_denominator(100000)
+            self._stream = self._container.add_stream("libx264", rate=rate)
+            self._stream.width, self._stream.height = self.size
+            self._stream.pix_fmt = "yuv420p"
+            self._stream.time_base = 1 / rate
+            self._stream.codec_context.thread_count = threads
+            self._stream.options = {"crf": str(crf), "preset": preset}
+        except (av.error.FFmpegError, OSError, ValueError) as e:
+            self._closed = True
+            self._drop()
+            raise LaneFinderError(f"cannot write the video {self.path}: {e}") from None
 
     def write(self, image: np.ndarray) -> None:
         """Encode one frame.
@@ -290,34 +334,66 @@ class VideoSink:
         ----------
         image : (height, width, 3) uint8 ndarray
             The frame, BGR, at the size given by ``info``.
+
+        Raises
+        ------
+        LaneFinderError
+            When the frame cannot be encoded or written (a full disk, for one).
         """
-        frame = av.VideoFrame.from_ndarray(image, format="bgr24")
-        frame.pts = self.frames_written
-        self._container.mux(self._stream.encode(frame))
+        if self.padded:
+            h, w = image.shape[:2]
+            image = cv2.copyMakeBorder(image, 0, self.size[1] - h, 0, self.size[0] - w, cv2.BORDER_REPLICATE)
+        try:
+            frame = av.VideoFrame.from_ndarray(image, format="bgr24")
+            frame.pts = self.frames_written
+            self._container.mux(self._stream.encode(frame))
+        except (av.error.FFmpegError, OSError, ValueError) as e:
+            raise LaneFinderError(f"cannot write the video {self.path}: {_reason(e)}") from None
         self.frames_written += 1
 
     def close(self) -> None:
-        """Flush the encoder, finish the MP4 and move it to ``path``."""
+        """Flush the encoder and finish the MP4; move it to ``path`` unless it belongs to a set.
+
+        Raises
+        ------
+        LaneFinderError
+            When the file cannot be finished (a full disk, for one); nothing is put in place.
+        """
         if self._closed:
             return
         self._closed = True
         try:
             self._container.mux(self._stream.encode(None))
             self._container.close()
-            if self.frames_written:
-                publish(self.tmp, self.path)
-        finally:
-            self.tmp.unlink(missing_ok=True)
+        except (av.error.FFmpegError, OSError, ValueError) as e:
+            with contextlib.suppress(av.error.FFmpegError, OSError, ValueError):
+                self._container.close()
+            self._drop()
+            raise LaneFinderError(f"cannot finish the video {self.path}: {_reason(e)}") from None
+        if self._own:
+            (self._outputs.commit if self.frames_written else self._outputs.discard)()
 
     def discard(self) -> None:
         """Drop the output (nothing to keep)."""
-        self._closed = True
-        with contextlib.suppress(av.error.FFmpegError):
-            self._container.close()
-        self.tmp.unlink(missing_ok=True)
+        if not self._closed:
+            self._closed = True
+            with contextlib.suppress(av.error.FFmpegError, OSError, ValueError):
+                self._container.close()
+        self._drop()
+
+    def _drop(self) -> None:
+        if self._own:
+            self._outputs.discard()
+        else:
+            self.tmp.unlink(missing_ok=True)
 
     def __enter__(self) -> VideoSink:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
         self.close()
+
+
+def _reason(e: BaseException) -> str:
+    """Give the OS's words for an I/O failure (``No space left on device``), else the message."""
+    return getattr(e, "strerror", None) or str(e)

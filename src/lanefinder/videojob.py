@@ -8,6 +8,7 @@ results themselves (:class:`RunCounts`), so it needs nothing of the tracker's in
 from __future__ import annotations
 
 import contextlib
+import math
 import queue
 import signal
 import threading
@@ -22,8 +23,9 @@ import numpy as np
 from .birdseye import BirdsEye
 from .config import Config
 from .errors import LaneFinderError
-from .io import check_not_input, write_image
+from .io import OutputSet, encode_image
 from .lane import LOST, REDETECT, LaneResult
+from .limits import check_memory
 from .pipeline import LaneFinder
 from .render import annotate, contact_sheet, draw_debug
 from .telemetry import TelemetryWriter, make_row
@@ -118,6 +120,8 @@ class VideoSummary:
         The annotated video (None when no video was written).
     telemetry : str or None
         The telemetry file.
+    padded : tuple of int or None
+        The size the video was encoded at when the frames' odd size was padded by a pixel.
 
     Examples
     --------
@@ -139,6 +143,7 @@ class VideoSummary:
     interrupted: bool
     output: str | None
     telemetry: str | None
+    padded: tuple[int, int] | None = None
 
     def lines(self) -> list[str]:
         """Return the end-of-run summary as printed lines.
@@ -159,6 +164,9 @@ class VideoSummary:
             out.append("the input ended early (truncated file): the output holds the frames that could be read")
         if self.interrupted:
             out.append("interrupted: the output holds the frames processed so far")
+        if self.padded:
+            out.append(f"note: the frames have an odd size, which H.264 cannot hold: the video is padded by one "
+                       f"pixel to {self.padded[0]}x{self.padded[1]} (the last row/column repeated)")
         return out
 
 
@@ -185,13 +193,18 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
     return restore
 
 
-def _check_args(src: Path, dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
+def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
                 end_s: float | None) -> None:
-    """Refuse outputs over inputs and impossible spans before any work."""
-    outputs = [p for p in (dst, telemetry, sheet) if p is not None]
-    for i, out in enumerate(outputs):
-        check_not_input(out, [src, *outputs[:i]])
-    if not (start_s >= 0 and (end_s is None or end_s > start_s)):  # also refuses NaN
+    """Refuse bad names and impossible spans before any work."""
+    if dst is None and telemetry is None:
+        raise LaneFinderError("nothing to write: give an output video, telemetry, or both")
+    if dst is not None and dst.suffix.lower() != ".mp4":
+        raise LaneFinderError(f"the output video must be an .mp4 file: {dst}")
+    if telemetry is not None and Path(telemetry).suffix.lower() not in (".csv", ".jsonl"):
+        raise LaneFinderError(f"telemetry file must end in .csv or .jsonl: {telemetry}")
+    if sheet is not None:
+        encode_image(sheet, np.zeros((2, 2, 3), np.uint8))  # refuses a suffix that is not an image format
+    if not (start_s >= 0 and (end_s is None or end_s > start_s)) or math.isinf(start_s):  # also refuses NaN
         raise LaneFinderError(f"--start/--end must satisfy 0 <= start < end (got {start_s}, {end_s})")
 
 
@@ -246,6 +259,14 @@ class _Threads:
         while self._dec.is_alive():
             with contextlib.suppress(queue.Empty):
                 self.in_q.get(timeout=0.05)
+
+
+def _stop(sink: VideoSink | None, writer: TelemetryWriter | None) -> None:
+    """Drop the video and the telemetry of a failed run (their set removes the files)."""
+    if sink is not None:
+        sink.discard()
+    if writer is not None:
+        writer.discard()
 
 
 def _thumb(image: np.ndarray) -> np.ndarray:
@@ -379,39 +400,54 @@ def process_video(
     """
     cfg = config or Config()
     src, dst = Path(src), (Path(dst) if dst is not None else None)
-    if dst is None and telemetry is None:
-        raise LaneFinderError("nothing to write: give an output video, telemetry, or both")
-    _check_args(src, dst, telemetry, contact_sheet_path, start_s, end_s)
+    _check_args(dst, telemetry, contact_sheet_path, start_s, end_s)
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
     finder = LaneFinder(cfg, keep_debug=debug)
     be = finder.birdseye(info.size)  # fails early on a size the camera cannot serve
+    check_memory(cfg, info.size, frames_held=4 * _QUEUE_FRAMES)
     expected = _expected_frames(info, start_s, end_s, max_frames)
     decode_stats = DecodeStats()
     run = _Run(finder, be, expected, sheet_frames, debug, on_result)
-    sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads) if dst is not None else None
-    writer = TelemetryWriter(telemetry) if telemetry is not None else None
-    threads = _Threads(frames(src, start_s, end_s, cfg.video.threads, decode_stats), sink, max_frames)
-    t0 = time.perf_counter()
-    interrupted = run.loop(threads, writer, sink is not None, progress, src.name)
-    failed = bool(threads.errors) and not interrupted
-    done = run.counts.frames
-    if writer:
-        (writer.discard if failed or not done else writer.close)()
-    if sink is not None:
-        (sink.close if done and not failed else sink.discard)()
-    elapsed = time.perf_counter() - t0
-    if failed:
-        e = threads.errors[0]
-        if isinstance(e, LaneFinderError):
-            raise e
-        raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
-    if done == 0:
-        raise LaneFinderError(f"no frames could be decoded from {src}" +
-                              (f" between {start_s} s and {end_s} s" if start_s or end_s else ""))
-    if contact_sheet_path and run.thumbs:
-        write_image(contact_sheet_path, contact_sheet(run.thumbs))
+    # Every output is written beside its destination and put in place together, only at the end.
+    with OutputSet(inputs=[src]) as outs:
+        sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads, outputs=outs) \
+            if dst is not None else None
+        writer = TelemetryWriter(telemetry, outputs=outs) if telemetry is not None else None
+        sheet_tmp = outs.add(contact_sheet_path) if contact_sheet_path else None
+        threads = _Threads(frames(src, start_s, end_s, cfg.video.threads, decode_stats), sink, max_frames)
+        t0 = time.perf_counter()
+        try:
+            interrupted = run.loop(threads, writer, sink is not None, progress, src.name)
+        finally:
+            threads.join()
+        done = run.counts.frames
+        if threads.errors and not interrupted:
+            _stop(sink, writer)
+            e = threads.errors[0]
+            if isinstance(e, LaneFinderError):
+                raise e
+            raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
+        if done == 0:
+            _stop(sink, writer)
+            raise LaneFinderError(f"no frames could be decoded from {src}" +
+                                  (f" between {start_s} s and {end_s} s" if start_s or end_s else ""))
+        try:
+            if writer:
+                writer.close()
+            if sink is not None:
+                sink.close()
+        except BaseException:
+            _stop(sink, writer)
+            raise
+        if sheet_tmp is not None and run.thumbs:
+            buf = encode_image(contact_sheet_path, contact_sheet(run.thumbs))
+            try:
+                buf.tofile(sheet_tmp)
+            except OSError as e:
+                raise LaneFinderError(f"cannot write {contact_sheet_path}: {e.strerror or e}") from None
+        elapsed = time.perf_counter() - t0
     # A file cut short may just end (its index said more): fewer frames than it announced.
     ended_early = decode_stats.truncated or (not interrupted and done < expected - _EARLY_END_FRAMES)
     c = run.counts
@@ -419,5 +455,5 @@ def process_video(
         frames=done, seconds=elapsed, fps=done / elapsed if elapsed else 0.0, tracked=c.with_lane,
         both_found=c.both_found, redetections=c.redetections, lost=c.lost, damaged=decode_stats.damaged,
         truncated=ended_early, interrupted=interrupted, output=str(dst) if dst is not None else None,
-        telemetry=str(telemetry) if telemetry else None,
+        telemetry=str(telemetry) if telemetry else None, padded=sink.size if sink is not None and sink.padded else None,
     )
