@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
 from pathlib import Path
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -257,7 +258,8 @@ def board_visible(gray: np.ndarray) -> bool:
     return bool(ok)
 
 
-def find_board(gray: np.ndarray, board: tuple[int, int]) -> tuple[np.ndarray, tuple[int, int]] | None:
+def find_board(gray: np.ndarray, board: tuple[int, int],
+               sizes: Literal["all", "whole", "partial"] = "all") -> tuple[np.ndarray, tuple[int, int]] | None:
     """Find the largest visible (sub-)board of a chessboard's inner corners.
 
     Parameters
@@ -266,6 +268,9 @@ def find_board(gray: np.ndarray, board: tuple[int, int]) -> tuple[np.ndarray, tu
         The photo, grey.
     board : tuple of int
         The full board's inner corners, (cols, rows).
+    sizes : {"all", "whole", "partial"}, optional
+        Look for the whole board and then its sub-boards, the whole board only, or the
+        sub-boards only.
 
     Returns
     -------
@@ -283,7 +288,9 @@ def find_board(gray: np.ndarray, board: tuple[int, int]) -> tuple[np.ndarray, tu
     """
     if not board_visible(gray):
         return None
-    for pattern in _sub_board_sizes(board):
+    patterns = _sub_board_sizes(board)
+    patterns = patterns[:1] if sizes == "whole" else patterns[1:] if sizes == "partial" else patterns
+    for pattern in patterns:
         ok, corners = cv2.findChessboardCorners(gray, pattern, _CORNER_FLAGS)
         if ok:
             corners = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), _SUBPIX_CRITERIA)
@@ -345,7 +352,7 @@ def calibrate(
     Raises
     ------
     LaneFinderError
-        When no photos are given, one cannot be read, or fewer than 3 show a board.
+        When no photos are given, one cannot be read, or fewer than 3 show the whole board.
 
     Examples
     --------
@@ -366,34 +373,43 @@ def calibrate(
         image_size = max(set(sizes), key=lambda s: (sizes.count(s), -s[0]))
     w, h = image_size
 
-    obj_pts, img_pts, reports, used_idx = [], [], [], []
+    # Each photo at the calibration size (or its reason for being skipped), grey.
+    grays: list[tuple[str, np.ndarray | None, str]] = []
     for path, im in images:
         ih, iw = im.shape[:2]
         note = ""
         if (iw, ih) != (w, h):
-            if w <= iw <= w + 2 and h <= ih <= h + 2:
-                im = im[:h, :w]
-                note = f"cropped {iw}x{ih} to {w}x{h}"
-            else:
-                reports.append(ViewReport(path, False, f"size {iw}x{ih} differs from {w}x{h}"))
+            if not (w <= iw <= w + 2 and h <= ih <= h + 2):
+                grays.append((path, None, f"size {iw}x{ih} differs from {w}x{h}"))
                 continue
-        gray = cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) if im.ndim == 3 else im
-        found = find_board(gray, board)
-        if found is None:
-            reports.append(ViewReport(path, False, "no chessboard found"))
+            im = im[:h, :w]
+            note = f"cropped {iw}x{ih} to {w}x{h}"
+        grays.append((path, cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) if im.ndim == 3 else im, note))
+    # The whole board first, in every photo: too few whole boards ends the work early (a wrong
+    # --board would otherwise try every sub-board of every photo).
+    found = [find_board(g, board, "whole") if g is not None else None for _, g, _ in grays]
+    whole = sum(f is not None for f in found)
+    if whole == 0:
+        raise LaneFinderError(f"no {board[0]}x{board[1]} chessboard was found in any of the {len(images)} photos")
+    if whole < 3:
+        raise LaneFinderError(
+            f"only {whole} photo(s) show the whole {board[0]}x{board[1]} board; at least 3 are needed (partial "
+            "boards are used only beside them): is --board the board's inner corners?")
+    found = [f if f is not None or g is None else find_board(g, board, "partial")
+             for f, (_, g, _) in zip(found, grays, strict=True)]
+
+    obj_pts, img_pts, reports, used_idx = [], [], [], []
+    for (path, gray, note), f in zip(grays, found, strict=True):
+        if gray is None or f is None:
+            reports.append(ViewReport(path, False, note if gray is None else "no chessboard found"))
             continue
-        corners, pattern = found
+        corners, pattern = f
         if pattern != board:
             note = "; ".join(filter(None, [note, f"partial board {pattern[0]}x{pattern[1]}"]))
         obj_pts.append(board_points(pattern))
         img_pts.append(corners)
         used_idx.append(len(reports))
         reports.append(ViewReport(path, True, note, pattern))
-
-    if not obj_pts:
-        raise LaneFinderError(f"no {board[0]}x{board[1]} chessboard was found in any of the {len(images)} photos")
-    if len(obj_pts) < 3:
-        raise LaneFinderError(f"only {len(obj_pts)} photo(s) show a chessboard; at least 3 are needed")
 
     rms, k, dist, rvecs, tvecs = cv2.calibrateCamera(obj_pts, img_pts, (w, h), None, None)
     for i, (obj, img, rv, tv) in enumerate(zip(obj_pts, img_pts, rvecs, tvecs, strict=True)):
@@ -460,20 +476,40 @@ def load_camera(path: str | Path) -> CameraModel:
             k = np.asarray(d["camera_matrix"], dtype=np.float64).reshape(3, 3)
             dist = np.asarray(d["dist_coeffs"], dtype=np.float64).ravel()
             size = tuple(int(v) for v in d["image_size"])
-        except (ValueError, KeyError, TypeError) as e:
+            views = tuple(
+                ViewReport(str(v["path"]), bool(v["used"]), str(v.get("reason", "")),
+                           tuple(v["pattern"]) if v.get("pattern") else None, v.get("error_px"))
+                for v in d.get("views", [])
+            )
+            board = tuple(int(v) for v in d["board"]) if d.get("board") else None
+        except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError) as e:
             raise LaneFinderError(f"{p}: not a lanefinder camera file ({e})") from None
-        views = tuple(
-            ViewReport(v["path"], v["used"], v.get("reason", ""), tuple(v["pattern"]) if v.get("pattern") else None,
-                       v.get("error_px"))
-            for v in d.get("views", [])
-        )
-        board = tuple(d["board"]) if d.get("board") else None
-        return CameraModel(k, dist, size, d.get("rms_px"), board, views, str(p))
+        return _checked_camera(p, k, dist, size, d.get("rms_px"), board, views)
     return _load_opencv_storage(p)
 
 
+def _checked_camera(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple, rms, board=None, views=(),
+                    ) -> CameraModel:
+    """Refuse a camera file whose numbers cannot describe a camera, naming what is wrong."""
+    if k.shape != (3, 3) or not np.all(np.isfinite(k)):
+        raise LaneFinderError(f"{p}: camera_matrix must be 3x3 finite numbers")
+    if not (k[0, 0] > 0 and k[1, 1] > 0 and np.allclose(k[2], [0, 0, 1]) and k[1, 0] == 0):
+        raise LaneFinderError(f"{p}: camera_matrix is not a camera's (focal lengths must be positive, "
+                              "the last row 0 0 1)")
+    if dist.size not in (4, 5, 8, 12, 14) or not np.all(np.isfinite(dist)):
+        raise LaneFinderError(f"{p}: dist_coeffs must be 4, 5, 8, 12 or 14 finite numbers")
+    if len(size) != 2 or not all(16 <= v <= 16384 for v in size):
+        raise LaneFinderError(f"{p}: image_size must be (width, height), 16 to 16384 pixels each")
+    if rms is not None and not (isinstance(rms, (int, float)) and math.isfinite(rms)):
+        raise LaneFinderError(f"{p}: rms_px must be a number")
+    return CameraModel(k, dist, (int(size[0]), int(size[1])), rms, board, views, str(p))
+
+
 def _load_opencv_storage(p: Path) -> CameraModel:
-    fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+    try:
+        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError, UnicodeDecodeError):
+        raise LaneFinderError(f"{p}: cannot read it as JSON or as OpenCV YAML/XML") from None
     try:
         if not fs.isOpened():
             raise LaneFinderError(f"{p}: cannot read it as JSON or as OpenCV YAML/XML")
@@ -488,7 +524,7 @@ def _load_opencv_storage(p: Path) -> CameraModel:
         raise LaneFinderError(
             f"{p}: an OpenCV camera file needs camera_matrix, distortion_coefficients, image_width and image_height"
         )
-    return CameraModel(k.astype(np.float64), dist.astype(np.float64).ravel(), (int(w), int(h)), rms, source=str(p))
+    return _checked_camera(p, k.astype(np.float64), dist.astype(np.float64).ravel(), (w, h), rms)
 
 
 def calibration_photos(inputs: Iterable[str | Path]) -> list[Path]:

@@ -25,22 +25,77 @@ def _fail(msg: str) -> None:
 
 
 class _Group(click.Group):
-    """Turns our errors into one line and Ctrl-C into exit 130; never a traceback for bad input."""
+    """Turn every failure into one line: exit 2 for bad input or a full disk, 130 for Ctrl-C, 1 for a bug.
+
+    Nothing escapes as a traceback unless ``--verbose`` asks for it.
+    """
 
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
+        except (click.exceptions.Exit, click.ClickException, click.exceptions.Abort):
+            raise
         except LaneFinderError as e:
             _fail(str(e))
             sys.exit(2)
         except KeyboardInterrupt:
             _fail("interrupted")
             sys.exit(130)
+        except OSError as e:
+            _verbose_traceback(ctx)
+            where = f": {e.filename}" if getattr(e, "filename", None) else ""
+            _fail(f"{e.strerror or e}{where}")
+            sys.exit(2)
+        except MemoryError:
+            _verbose_traceback(ctx)
+            _fail("out of memory (see limits.memory_mb in the config)")
+            sys.exit(2)
+        except Exception as e:  # a bug: say so in one line, never silently
+            _verbose_traceback(ctx)
+            _fail(f"internal error ({type(e).__name__}: {e}); run with --verbose for the traceback "
+                  "and please report it")
+            sys.exit(1)
+
+
+def _verbose_traceback(ctx: click.Context) -> None:
+    if (ctx.obj or {}).get("verbose"):
+        import traceback
+
+        traceback.print_exc()
+
+
+class _Finite(click.ParamType):
+    """A finite float within bounds (NaN and infinities are refused with the option's name)."""
+
+    name = "float"
+
+    def __init__(self, lo: float | None = None, hi: float | None = None):
+        self.lo, self.hi = lo, hi
+
+    def convert(self, value, param, ctx) -> float:
+        import math
+
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(v):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if (self.lo is not None and v < self.lo) or (self.hi is not None and v > self.hi):
+            self.fail(f"{v:g} is not in the range {self.lo:g} to {self.hi:g}", param, ctx)
+        return v
+
+    def get_metavar(self, param, ctx=None) -> str:
+        lo = "" if self.lo is None else f"{self.lo:g}"
+        hi = "" if self.hi is None else f"{self.hi:g}"
+        return f"FLOAT {lo}..{hi}" if lo or hi else "FLOAT"
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="lanefinder")
-def main() -> None:
+@click.option("--verbose", is_flag=True, help="Print the traceback of an internal error.")
+@click.pass_context
+def main(ctx: click.Context, verbose: bool) -> None:
     """Find the lane on a car's forward camera: calibrate, process images and videos.
 
     \f
@@ -51,6 +106,7 @@ def main() -> None:
     >>> CliRunner().invoke(main, ["--version"]).output.strip()
     'lanefinder, version 0.1.0'
     """  # noqa: D301 (click cuts the help at the form feed, before the examples)
+    ctx.obj = {"verbose": verbose}
 
 
 def _config(path: str | None):
@@ -62,10 +118,11 @@ def _config(path: str | None):
 def _board(text: str) -> tuple[int, int]:
     try:
         cols, rows = (int(v) for v in text.lower().split("x"))
-        if cols < 3 or rows < 3:
+        if not (3 <= cols <= 30 and 3 <= rows <= 30):
             raise ValueError
     except ValueError:
-        raise LaneFinderError(f"--board takes COLSxROWS of inner corners, like 9x6 (got {text!r})") from None
+        raise LaneFinderError(f"--board takes COLSxROWS of inner corners, 3 to 30 each, like 9x6 "
+                              f"(got {text!r})") from None
     return cols, rows
 
 
@@ -109,10 +166,12 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
 def config_cmd(default: bool, check: str | None, fmt: str, output: str | None) -> None:
     """Print (or check) the configuration that -c takes."""
     from .config import Config, dump_config, load_config
-    from .io import atomic_write_text
+    from .io import atomic_write_text, check_not_input
 
     if not default and not check:
         raise LaneFinderError("say --default to print the defaults, or --check FILE to validate a config")
+    if output and check:
+        check_not_input(output, [check])
     text = dump_config(load_config(check) if check else Config(), fmt)  # type: ignore[arg-type]
     if output:
         atomic_write_text(output, text)
@@ -166,8 +225,8 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 @click.option("-o", "--output", type=click.Path(),
               help="Annotated video to write (.mp4, H.264); leave out for telemetry only.")
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
-@click.option("--start", "start_s", type=float, default=0.0, show_default=True, help="Start, seconds.")
-@click.option("--end", "end_s", type=float, default=None, help="End, seconds (default: the end).")
+@click.option("--start", "start_s", type=_Finite(0, 1e7), default=0.0, show_default=True, help="Start, seconds.")
+@click.option("--end", "end_s", type=_Finite(0, 1e7), default=None, help="End, seconds (default: the end).")
 @click.option("--telemetry", type=click.Path(), help="Per-frame numbers, .csv or .jsonl.")
 @click.option("--debug", is_flag=True, help="Picture-in-picture of the bird's-eye search in every frame.")
 @click.option("--contact-sheet", "sheet", type=click.Path(), help="Write a PNG grid of frames spread over the run.")
@@ -219,11 +278,11 @@ def plot(telemetry: str, output: str) -> None:
 @click.option("--scenario", default="straight", show_default=True,
               help="straight, curve, shadows, pavement, glare, worn, double-yellow, sharp-curve.")
 @click.option("--frames", "n_frames", type=click.IntRange(1, 100000), default=100, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True)
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (default: the Udacity camera).")
-@click.option("--height", "height_m", type=float, default=None, help="Camera height above the road, m.")
-@click.option("--pitch", "pitch_deg", type=float, default=None, help="Camera pitch, degrees down.")
-@click.option("-o", "--outdir", required=True, type=click.Path(), help="Folder for the sequence.")
+@click.option("--height", "height_m", type=_Finite(0.5, 4.0), default=None, help="Camera height above the road, m.")
+@click.option("--pitch", "pitch_deg", type=_Finite(-10.0, 15.0), default=None, help="Camera pitch, degrees down.")
+@click.option("-o", "--outdir", type=click.Path(), help="Folder for the sequence (required unless --list).")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, height_m: float | None,
           pitch_deg: float | None, outdir: str, list_only: bool) -> None:
@@ -239,6 +298,8 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
         for s in SCENARIOS.values():
             click.echo(f"{s.name:<14} {s.description}")
         return
+    if outdir is None:
+        raise LaneFinderError("give the folder for the sequence with -o/--outdir")
     mount = Mount()
     mount = Mount(height_m if height_m is not None else mount.height_m,
                   pitch_deg if pitch_deg is not None else mount.pitch_deg)
@@ -258,8 +319,10 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
     from dataclasses import asdict
 
     from .evaluate import evaluate, read_ground_truth, read_predictions
-    from .io import atomic_write_text
+    from .io import atomic_write_text, check_not_input
 
+    if json_path:
+        check_not_input(json_path, [gt_path, pred_path])
     report = evaluate(read_ground_truth(gt_path), read_predictions(pred_path))
     click.echo(report.table(name))
     if report.missing_frames:
@@ -275,12 +338,13 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
               help="A straight-road frame (repeat, or give a folder).")
 @click.option("--video", "video_path", type=click.Path(), help="Find straight-road frames in this video.")
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (JSON or OpenCV YAML).")
-@click.option("--lookahead", "lookahead_m", type=float, default=35.0, show_default=True,
+@click.option("--lookahead", "lookahead_m", type=_Finite(5.0, 150.0), default=35.0, show_default=True,
               help="How far ahead the view reaches, m (with a camera file).")
 @click.option("--bottom", "bottom_fraction", type=click.FloatRange(0.5, 1.0), default=0.9375, show_default=True,
               help="Bottom row of the view as a fraction of the height (above the hood).")
-@click.option("--lane-width", "lane_width_m", type=float, default=3.7, show_default=True)
-@click.option("--dash-period", "dash_period_m", type=float, default=12.0, show_default=True,
+@click.option("--lane-width", "lane_width_m", type=_Finite(2.0, 6.0), default=3.7, show_default=True,
+              help="The lane's width between line centres, m.")
+@click.option("--dash-period", "dash_period_m", type=_Finite(1.0, 50.0), default=12.0, show_default=True,
               help="Dash + gap length, m (the along-road scale without a camera file).")
 @click.option("-o", "--output", required=True, type=click.Path(), help="Config to write (.toml/.yaml/.json).")
 def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | None, lookahead_m: float,
@@ -289,20 +353,20 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     from .autosetup import SetupOptions, auto_setup, preview, straight_frames_from_video
     from .camera import load_camera
     from .config import dump_config
-    from .io import atomic_write_text, check_not_input, list_images, read_image, write_image
+    from .io import OutputSet, atomic_write_text, check_outputs, list_images, read_image, write_image
 
     if bool(straight) == bool(video_path):
         raise LaneFinderError("give straight-road frames with --straight, or a video with --video")
+    prev = Path(output).with_name(Path(output).stem + "_preview.png")
+    paths = [Path(video_path)] if video_path else list_images(straight)
+    check_outputs([output, prev], _setup_inputs(paths, camera_path))  # before any work
     camera = load_camera(camera_path) if camera_path else None
     opts = SetupOptions(lane_width_m=lane_width_m, lookahead_m=lookahead_m, bottom_fraction=bottom_fraction,
                         dash_period_m=dash_period_m)
     if video_path:
-        check_not_input(output, [video_path])
         click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, camera, opts)
     else:
-        paths = list_images(straight)
-        check_not_input(output, paths)
         images = [read_image(p) for p in paths]
     ref = "none"
     if camera_path:
@@ -318,14 +382,19 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     click.echo(f"vanishing point: ({result.vp[0]:.1f}, {result.vp[1]:.1f}); horizon row {result.horizon_row:.1f}")
     click.echo("src: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in b.src))
     click.echo("dst: " + ", ".join(f"({x:.0f}, {y:.0f})" for x, y in b.dst) + f" in a {b.size[0]}x{b.size[1]} view")
-    click.echo(f"xm_per_px = {b.xm_per_px:.6f} (lane width {lane_width_m} m over 150 px); "
+    click.echo(f"xm_per_px = {b.xm_per_px:.6f} (lane width {lane_width_m} m over {b.dst[1][0] - b.dst[0][0]:.0f} px); "
                f"ym_per_px = {b.ym_per_px:.6f} ({result.ym_source})")
     click.echo(f"straightness: lines bend by at most {result.straightness_px:.1f} px in the bird's-eye view")
     fmt = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(output).suffix.lower(), "toml")
-    atomic_write_text(output, dump_config(result.config(), fmt))  # type: ignore[arg-type]
-    prev = Path(output).with_name(Path(output).stem + "_preview.png")
-    write_image(prev, preview(images[0], result, camera))
+    with OutputSet(inputs=_setup_inputs(paths, camera_path)) as together:
+        atomic_write_text(output, dump_config(result.config(), fmt), outputs=together)  # type: ignore[arg-type]
+        write_image(prev, preview(images[0], result, camera), outputs=together)
     click.echo(f"wrote {output} and {prev}; use it with: lanefinder video IN.mp4 -o OUT.mp4 -c {output}")
+
+
+def _setup_inputs(paths: list[Path], camera_path: str | None) -> list[Path]:
+    """Give the inputs a set-up reads: its frames (or video) and its camera file."""
+    return [*paths, *([Path(camera_path)] if camera_path else [])]
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -222,6 +222,30 @@ def _read_jsonl(path: Path) -> list[dict]:
         raise LaneFinderError(f"{path}: not JSON Lines ({e})") from None
 
 
+_ROW_NUMBERS = ("offset_m", "curvature_per_m", "radius_m", "run_time")
+
+
+def _is_number(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check_row(row: object, path: Path | str, i: int) -> dict:
+    """Refuse a row whose lanes, rows or figures are not numbers, naming the row."""
+    if not isinstance(row, dict):
+        raise LaneFinderError(f"{path}: row {i} is not a record of named fields")
+    lanes = row.get("lanes", [])
+    if not isinstance(lanes, list) or not all(
+            isinstance(lane, list) and all(_is_number(v) for v in lane) for lane in lanes):
+        raise LaneFinderError(f"{path}: row {i}: lanes must be lists of numbers")
+    ys = row.get("h_samples", [])
+    if not isinstance(ys, list) or not all(_is_number(v) for v in ys):
+        raise LaneFinderError(f"{path}: row {i}: h_samples must be a list of numbers")
+    for k in _ROW_NUMBERS:
+        if row.get(k) is not None and not _is_number(row[k]):
+            raise LaneFinderError(f"{path}: row {i}: {k} is not a number ({row[k]!r})")
+    return row
+
+
 def _key(row: dict) -> str:
     if "raw_file" in row:
         return str(row["raw_file"])
@@ -257,9 +281,12 @@ def read_ground_truth(path: str | Path) -> dict[str, dict]:
     lanefinder.errors.LaneFinderError: not found: no/gt.jsonl
     """
     rows = _read_jsonl(Path(path))
-    for r in rows:
+    for i, r in enumerate(rows, 1):
+        _check_row(r, path, i)
         if "lanes" not in r or "h_samples" not in r:
             raise LaneFinderError(f"{path}: ground truth rows need lanes and h_samples")
+        if any(len(lane) != len(r["h_samples"]) for lane in r["lanes"]):
+            raise LaneFinderError(f"{path}: row {i}: every lane needs one x per h_sample")
     return {_key(r): r for r in rows}
 
 
@@ -294,7 +321,8 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
     p = Path(path)
     rows = read_telemetry(p) if p.suffix.lower() == ".csv" else _read_jsonl(p)
     out = {}
-    for r in rows:
+    for i, r in enumerate(rows, 1):
+        _check_row(r, p, i)
         if "lanes" not in r:
             lanes = [lane for lane in (r.get("left_x"), r.get("right_x")) if lane and any(v >= 0 for v in lane)]
             r = {**r, "lanes": lanes}

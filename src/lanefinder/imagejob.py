@@ -17,7 +17,7 @@ from typing import Any
 
 from .config import Config
 from .errors import LaneFinderError
-from .io import atomic_write_text, check_not_input, read_image, write_image
+from .io import OutputSet, atomic_write_text, check_outputs, read_image, write_image
 from .pipeline import LaneFinder
 from .render import annotate
 from .stages import write_stages
@@ -130,31 +130,32 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
     finder = LaneFinder(cfg)
     out = Path(outdir)
     results = out / RESULTS_NAME
-    check_not_input(results, paths)
     rows: list[dict[str, Any]] = []
     failures: list[tuple[str, str]] = []
     names = output_names(paths)
     renamed = [(str(p), n) for p, n in zip(paths, names, strict=True) if n != f"{p.stem}.jpg"]
-    for p, name in zip(paths, names, strict=True):
-        dest = out / name
-        try:
-            check_not_input(dest, paths)
-            frame = read_image(p)
-            finder.reset()
-            t0 = time.perf_counter()
-            result = finder.process(frame)
-            ms = (time.perf_counter() - t0) * 1000
-            be = finder.birdseye((frame.shape[1], frame.shape[0]))
-            write_image(dest, annotate(frame, result, be, cfg.render))
+    check_outputs([results, *(out / n for n in names)], paths)
+    # Every output is put in place together at the end; a failure to write drops them all.
+    with OutputSet(inputs=paths) as outs:
+        for p, name in zip(paths, names, strict=True):
+            dest = out / name
+            try:  # an image that cannot be read or served is reported, and the others go on
+                frame = read_image(p)
+                finder.reset()
+                t0 = time.perf_counter()
+                result = finder.process(frame)
+                ms = (time.perf_counter() - t0) * 1000
+                be = finder.birdseye((frame.shape[1], frame.shape[0]))
+            except LaneFinderError as e:
+                failures.append((str(p), str(e)))
+                continue
+            write_image(dest, annotate(frame, result, be, cfg.render), outputs=outs)
             if stages_dir:
-                write_stages(Path(stages_dir), dest.stem, frame, finder)
-        except LaneFinderError as e:
-            failures.append((str(p), str(e)))
-            continue
-        row = {"image": str(p), "output": str(dest), **lane_row(result, be), "ms": round(ms, 2)}
-        rows.append(row)
-        if on_row:
-            on_row(row)
-    if rows:
-        atomic_write_text(results, "".join(json.dumps(r) + "\n" for r in rows))
+                write_stages(Path(stages_dir), dest.stem, frame, finder, outputs=outs)
+            row = {"image": str(p), "output": str(dest), **lane_row(result, be), "ms": round(ms, 2)}
+            rows.append(row)
+            if on_row:
+                on_row(row)
+        if rows:
+            atomic_write_text(results, "".join(json.dumps(r) + "\n" for r in rows), outputs=outs)
     return ImageRun(rows=rows, failures=failures, renamed=renamed, results=str(results) if rows else None)

@@ -21,6 +21,7 @@ __all__ = [
     "atomic_path",
     "atomic_write_text",
     "check_not_input",
+    "check_outputs",
     "encode_image",
     "list_images",
     "publish",
@@ -212,6 +213,39 @@ class OutputSet:
         self._pending: list[tuple[Path, Path]] = []
         self.outputs: list[Path] = []
 
+    def check(self, path: str | Path) -> Path:
+        """Check that a path may be one of this set's outputs, without creating anything.
+
+        Parameters
+        ----------
+        path : str or Path
+            The destination.
+
+        Returns
+        -------
+        Path
+            The destination.
+
+        Raises
+        ------
+        LaneFinderError
+            When ``path`` names an input, another output, a folder, or lies under a file.
+        """
+        dest = Path(path)
+        real = dest.resolve()
+        if real in self._inputs:
+            raise LaneFinderError(f"refusing to overwrite the input {self._inputs[real]}; choose another output path")
+        if any(real == o.resolve() for o in self.outputs):
+            raise LaneFinderError(f"two outputs would be written to the same file: {dest}")
+        if dest.is_dir():
+            raise LaneFinderError(f"the output {dest} is a folder; give a file name")
+        for parent in dest.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise LaneFinderError(f"cannot create the folder {dest.parent}: {parent} is a file")
+                break
+        return dest
+
     def add(self, path: str | Path, suffix: str | None = None) -> Path:
         """Register an output and give the hidden temporary file to write it to.
 
@@ -234,14 +268,7 @@ class OutputSet:
             When ``path`` names an input, another output or a folder, or its folder cannot be
             made or written.
         """
-        dest = Path(path)
-        real = dest.resolve()
-        if real in self._inputs:
-            raise LaneFinderError(f"refusing to overwrite the input {self._inputs[real]}; choose another output path")
-        if any(real == o.resolve() for o in self.outputs):
-            raise LaneFinderError(f"two outputs would be written to the same file: {dest}")
-        if dest.is_dir():
-            raise LaneFinderError(f"the output {dest} is a folder; give a file name")
+        dest = self.check(path)
         _make_folder(dest.parent)
         try:
             fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=suffix or dest.suffix, dir=dest.parent)
@@ -424,6 +451,34 @@ def _write_bytes(tmp: Path, buf: np.ndarray, dest: Path) -> None:
         buf.tofile(tmp)
     except OSError as e:
         raise LaneFinderError(f"cannot write {dest}: {e.strerror or e}") from None
+
+
+def check_outputs(outputs: Iterable[str | Path], inputs: Iterable[str | Path]) -> None:
+    """Check a command's output paths before any work: none names an input or another output.
+
+    Parameters
+    ----------
+    outputs : iterable of str or Path
+        The paths the command will write.
+    inputs : iterable of str or Path
+        The paths it reads.
+
+    Raises
+    ------
+    LaneFinderError
+        When an output names an input, another output or a folder, or lies under a file.
+
+    Examples
+    --------
+    >>> check_outputs(["out.toml", "out_preview.png"], ["frame.jpg"])
+    >>> check_outputs(["a.png", "./a.png"], [])
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: two outputs would be written to the same file: a.png
+    """
+    probe = OutputSet(inputs)
+    for out in outputs:
+        probe.outputs.append(probe.check(out))
 
 
 def check_not_input(output: str | Path, inputs: Iterable[str | Path]) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .io import write_image
+from .io import OutputSet, write_image
 from .pipeline import LaneFinder
 from .render import annotate, search_view
 from .threshold import threshold
@@ -57,7 +57,8 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
     }
 
 
-def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder) -> list[Path]:
+def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder,
+                 outputs: OutputSet | None = None) -> list[Path]:
     """Write the stage images of one frame as ``folder/<stem>_<stage>.png``.
 
     Parameters
@@ -70,6 +71,8 @@ def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder)
         The original frame, BGR.
     finder : LaneFinder
         Gives the configuration and the camera.
+    outputs : OutputSet, optional
+        Write the images as part of this set (put in place when the set commits).
 
     Returns
     -------
@@ -88,6 +91,6 @@ def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder)
     out = []
     for name, img in stage_images(frame, finder).items():
         path = Path(folder) / f"{stem}_{name}.png"
-        write_image(path, img)
+        write_image(path, img, outputs=outputs)
         out.append(path)
     return out

@@ -26,10 +26,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .camera import CameraModel, save_camera
+from .camera import CameraModel
 from .config import LANE_SPAN_PX, LANE_WIDTH_M, VIEW_SIZE_PX, default_dst
 from .errors import LaneFinderError
-from .io import atomic_write_text
+from .io import OutputSet, atomic_write_text
 from .telemetry import h_samples as tusimple_rows
 
 __all__ = [
@@ -608,7 +608,6 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     if n_frames < 1:
         raise LaneFinderError("--frames must be at least 1")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     cam = camera or udacity_camera()
     renderer = Renderer(cam, mount or Mount(), scenario, seed)
     w, h = cam.image_size
@@ -616,16 +615,24 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     rows = []
     from tqdm import tqdm
 
-    with VideoSink(out / "video.mp4", info, preset="veryfast", crf=14) as sink:
-        for img, truth in tqdm(renderer.frames(n_frames, fps), total=n_frames, disable=not progress,
-                               desc=scenario.name, unit="frame"):
-            sink.write(img)
-            rows.append(json.dumps(truth.to_json()))
-    atomic_write_text(out / "gt.jsonl", "\n".join(rows) + "\n")
-    save_camera(replace(cam, views=()), out / "camera.json")
-    cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
-    atomic_write_text(out / "config.toml", dump_config(cfg))
-    meta = {"scenario": asdict(scenario), "seed": seed, "frames": n_frames, "fps": fps,
-            "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
-    atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
+    # All five files are put in place together, only when all are written.
+    with OutputSet() as outs:
+        sink = VideoSink(out / "video.mp4", info, preset="veryfast", crf=14, outputs=outs)
+        try:
+            for img, truth in tqdm(renderer.frames(n_frames, fps), total=n_frames, disable=not progress,
+                                   desc=scenario.name, unit="frame"):
+                sink.write(img)
+                rows.append(json.dumps(truth.to_json()))
+            sink.close()
+        except BaseException:
+            sink.discard()
+            raise
+        atomic_write_text(out / "gt.jsonl", "\n".join(rows) + "\n", outputs=outs)
+        atomic_write_text(out / "camera.json", json.dumps(replace(cam, views=()).to_dict(), indent=2) + "\n",
+                          outputs=outs)
+        cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
+        atomic_write_text(out / "config.toml", dump_config(cfg), outputs=outs)
+        meta = {"scenario": asdict(scenario), "seed": seed, "frames": n_frames, "fps": fps,
+                "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
+        atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n", outputs=outs)
     return out

@@ -337,6 +337,9 @@ class TelemetryWriter:
             self.discard()
 
 
+_NUMBER_FIELDS = [f for f in FIELDS if f not in LIST_FIELDS and f not in BOOL_FIELDS and f != "state"]
+
+
 def _parse_csv_value(key: str, v: str):
     if v == "":
         return None
@@ -389,7 +392,16 @@ def read_telemetry(path: str | Path) -> list[dict]:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
-            return [{k: _parse_csv_value(k, v) for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]
-        return [json.loads(line) for line in text.splitlines() if line.strip()]
+            rows = [{k: _parse_csv_value(k, v) for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]
+        else:
+            rows = [json.loads(line) for line in text.splitlines() if line.strip()]
     except (ValueError, json.JSONDecodeError) as e:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
+    for i, row in enumerate(rows, 1):
+        if not isinstance(row, dict):
+            raise LaneFinderError(f"{p}: row {i} is not a record of named fields")
+        for k in _NUMBER_FIELDS:
+            v = row.get(k)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise LaneFinderError(f"{p}: row {i}: {k} is not a number ({v!r})")
+    return rows
