@@ -30,6 +30,23 @@ class _Group(click.Group):
     Nothing escapes as a traceback unless ``--verbose`` asks for it.
     """
 
+    def main(self, *args, **kwargs):
+        """Run the command line; a usage error is one line too (exit 2)."""
+        kwargs["standalone_mode"] = False
+        try:
+            rv = super().main(*args, **kwargs)
+        except click.exceptions.NoArgsIsHelpError as e:
+            click.echo(e.ctx.get_help() if e.ctx else "", err=True)
+            sys.exit(2)
+        except click.ClickException as e:
+            hint = f" (see '{e.ctx.command_path} --help')" if getattr(e, "ctx", None) is not None else ""
+            _fail(f"{e.format_message()}{hint}")
+            sys.exit(e.exit_code)
+        except click.exceptions.Abort:
+            _fail("interrupted")
+            sys.exit(130)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)

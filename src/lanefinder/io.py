@@ -448,7 +448,7 @@ def encode_image(path: str | Path, image: np.ndarray) -> np.ndarray:
 
 def _write_bytes(tmp: Path, buf: np.ndarray, dest: Path) -> None:
     try:
-        buf.tofile(tmp)
+        tmp.write_bytes(buf.tobytes())  # (ndarray.tofile hides the OS's reason for a short write)
     except OSError as e:
         raise LaneFinderError(f"cannot write {dest}: {e.strerror or e}") from None
 

@@ -392,14 +392,15 @@ def read_telemetry(path: str | Path) -> list[dict]:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
-            rows = [{k: _parse_csv_value(k, v) for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]
+            rows = [{k: _parse_csv_value(k, v) if isinstance(k, str) and isinstance(v, str) else v
+                     for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]
         else:
             rows = [json.loads(line) for line in text.splitlines() if line.strip()]
     except (ValueError, json.JSONDecodeError) as e:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     for i, row in enumerate(rows, 1):
-        if not isinstance(row, dict):
-            raise LaneFinderError(f"{p}: row {i} is not a record of named fields")
+        if not isinstance(row, dict) or None in row:
+            raise LaneFinderError(f"{p}: row {i} is not a record of named fields (or has more values than the header)")
         for k in _NUMBER_FIELDS:
             v = row.get(k)
             if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):

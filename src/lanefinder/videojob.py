@@ -444,7 +444,7 @@ def process_video(
         if sheet_tmp is not None and run.thumbs:
             buf = encode_image(contact_sheet_path, contact_sheet(run.thumbs))
             try:
-                buf.tofile(sheet_tmp)
+                sheet_tmp.write_bytes(buf.tobytes())
             except OSError as e:
                 raise LaneFinderError(f"cannot write {contact_sheet_path}: {e.strerror or e}") from None
         elapsed = time.perf_counter() - t0

@@ -1,0 +1,466 @@
+"""Fuzz and fault suite: whatever it is given, lanefinder answers with a result or one clear line.
+
+- Property-based tests (Hypothesis) over configs, frames, telemetry and label files: the
+  library raises ``LaneFinderError`` and nothing else.
+- Generated corrupt media (cut at several points, bytes flipped, wrong containers, odd sizes,
+  one frame) through ``lanefinder video`` as a subprocess.
+- The CLI as a subprocess for each bad-input case: the exit status, a single
+  ``lanefinder: error:`` line, every input's bytes unchanged and no file left behind.
+- A full disk: a small tmpfs when the tests run as root, else a writer that raises ENOSPC.
+
+Every loop is bounded in count (``max_examples``) and every subprocess in time.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from fractions import Fraction
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from lanefinder import LaneFinder
+from lanefinder.config import config_from_dict
+from lanefinder.errors import LaneFinderError
+from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
+from lanefinder.telemetry import read_telemetry
+from lanefinder.video import VideoInfo
+
+from conftest import CAL, CLIPS, TEST_IMAGES
+
+CLIP = CLIPS / "project_37-47s.mp4"
+CAMERA = Path(__file__).resolve().parents[1] / "src" / "lanefinder" / "data" / "udacity_camera.json"
+FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+RUN_TIMEOUT_S = 120
+
+# -- property-based: the library ---------------------------------------------------------------
+json_scalars = st.none() | st.booleans() | st.integers(-10**12, 10**12) | st.floats() | st.text(max_size=8)
+json_values = st.recursive(json_scalars, lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c,
+                                                                                            max_size=4), max_leaves=12)
+SECTIONS = ["camera", "birdseye", "threshold", "search", "fit", "tracking", "render", "video", "limits"]
+KEYS = ["size", "src", "dst", "xm_per_px", "line_thickness", "n_windows", "method", "crf", "memory_mb", "model",
+        "max_misses", "reference_size", "alpha"]
+
+
+@FUZZ
+@given(st.dictionaries(
+    st.sampled_from(SECTIONS) | st.text(max_size=6),
+    st.dictionaries(st.sampled_from(KEYS) | st.text(max_size=6), json_values, max_size=3) | json_values,
+    max_size=3))
+def test_any_config_is_accepted_or_refused_with_a_lanefinder_error(data):
+    try:
+        cfg = config_from_dict(data, "fuzz")
+    except LaneFinderError as e:
+        assert str(e).startswith("invalid config (fuzz)") or "fuzz" in str(e)
+        return
+    # Whatever is accepted is finite and within the bounds.
+    assert all(8192 >= v >= 16 for v in cfg.birdseye.size)
+    assert 1 <= cfg.render.line_thickness <= 50
+
+
+FRAME_SHAPES = st.sampled_from([(0, 0, 3), (36, 64, 3), (72, 128, 3), (90, 160, 3), (72, 128), (72, 128, 4),
+                                (1, 1, 3), (3, 5, 3), (720, 1280, 1)])
+FRAME_DTYPES = st.sampled_from([np.uint8, np.float32, np.float64, np.int16, np.bool_])
+
+
+@FUZZ
+@given(FRAME_SHAPES, FRAME_DTYPES, st.integers(0, 2**32 - 1))
+def test_any_array_gives_a_result_or_a_lanefinder_error(shape, dtype, seed):
+    frame = np.random.default_rng(seed).integers(0, 256, shape).astype(dtype)
+    try:
+        result = LaneFinder().process(frame)
+    except LaneFinderError:
+        assert not (frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3 and frame.size
+                    and abs(frame.shape[1] / frame.shape[0] / (16 / 9) - 1) < 0.01)
+        return
+    assert result.state in ("tracking", "re-detect", "lost")
+
+
+@pytest.mark.parametrize("thing", [None, [1, 2, 3], "frame.jpg", 3.0, np.zeros((720, 1280, 3), np.float32)])
+def test_things_that_are_not_frames_are_refused(thing):
+    with pytest.raises(LaneFinderError, match="BGR uint8"):
+        LaneFinder().process(thing)
+
+
+@FUZZ
+@given(st.binary(max_size=400) | st.text(max_size=400).map(str.encode), st.sampled_from([".csv", ".jsonl"]))
+def test_any_telemetry_file_is_read_or_refused(tmp_path, data, suffix):
+    path = tmp_path / f"t{suffix}"
+    path.write_bytes(data)
+    try:
+        rows = read_telemetry(path)
+    except LaneFinderError:
+        return
+    assert all(isinstance(r, dict) for r in rows)
+
+
+label_rows = st.fixed_dictionaries(
+    {"raw_file": st.sampled_from(["a", "b"]),
+     "lanes": st.lists(st.lists(st.integers(-2, 1300) | st.floats() | st.text(max_size=2), max_size=4), max_size=3),
+     "h_samples": st.lists(st.integers(0, 720) | st.text(max_size=2), max_size=4)},
+    optional={"offset_m": json_scalars, "run_time": json_scalars, "radius_m": json_scalars})
+
+
+@FUZZ
+@given(st.lists(label_rows | json_values, min_size=1, max_size=4), st.lists(label_rows | json_values, max_size=4))
+def test_any_label_and_prediction_files_are_scored_or_refused(tmp_path, gt_rows, pred_rows):
+    gt, pred = tmp_path / "gt.jsonl", tmp_path / "pred.jsonl"
+    gt.write_text("".join(json.dumps(r) + "\n" for r in gt_rows))
+    pred.write_text("".join(json.dumps(r) + "\n" for r in pred_rows))
+    try:
+        report = evaluate(read_ground_truth(gt), read_predictions(pred))
+    except LaneFinderError:
+        return
+    assert 0.0 <= report.accuracy <= 1.0 and math.isfinite(report.fp)
+
+
+# -- the CLI as a subprocess ------------------------------------------------------------------
+def _sha(paths: list[Path]) -> dict[Path, str]:
+    return {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in paths if p.is_file()}
+
+
+def run_cli(*args: str, cwd: Path | None = None, timeout: float = RUN_TIMEOUT_S) -> subprocess.CompletedProcess:
+    """Run ``lanefinder ARGS`` in a fresh interpreter, bounded in time."""
+    return subprocess.run([sys.executable, "-m", "lanefinder", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout, cwd=cwd)
+
+
+def assert_one_error_line(p: subprocess.CompletedProcess, status: int = 2, says: str = "") -> str:
+    # Progress bars (tqdm, on stderr) may come before the message; nothing else may.
+    lines = [line for line in p.stderr.strip().splitlines() if line.strip() and "%|" not in line]
+    assert p.returncode == status, (p.returncode, p.stderr[-2000:])
+    assert len(lines) == 1 and lines[0].startswith("lanefinder: error: "), p.stderr[-2000:]
+    assert says in lines[0], lines[0]
+    return lines[0]
+
+
+def assert_nothing_hidden(*folders: Path) -> None:
+    for f in folders:
+        if f.is_dir():
+            assert not [p.name for p in f.iterdir() if p.name.startswith(".")], list(f.iterdir())
+
+
+@pytest.fixture()
+def work(tmp_path):
+    """A folder with copies of the inputs the cases read (so a write over one would show)."""
+    shutil.copy(CLIP, tmp_path / "clip.mp4")
+    shutil.copy(CLIP, tmp_path / "clip.png")  # a video with an image's name, for the contact-sheet case
+    shutil.copy(TEST_IMAGES / "test3.jpg", tmp_path / "test3.jpg")
+    shutil.copy(TEST_IMAGES / "straight_lines1.jpg", tmp_path / "straight.jpg")
+    shutil.copy(TEST_IMAGES / "straight_lines1.jpg", tmp_path / "s_preview.png")  # where `setup -o s.toml` previews
+    (tmp_path / "a_file").write_text("I am a file, not a folder\n")
+    (tmp_path / "t.csv").write_text("frame,time_s,state,radius_m\n0,0.0,tracking,900\n1,0.04,tracking,950\n")
+    (tmp_path / "bad.csv").write_text("frame,time_s,state,radius_m\n0,abc,tracking,900\n")
+    (tmp_path / "gt.jsonl").write_text(json.dumps({"raw_file": "a", "lanes": [[1, 2]], "h_samples": [700, 710]}) + "\n")
+    (tmp_path / "strs.jsonl").write_text(json.dumps({"raw_file": "a", "lanes": [["x", 2]]}) + "\n")
+    (tmp_path / "garbage.toml").write_bytes(bytes(range(256)) * 4)
+    (tmp_path / "big.toml").write_text("[birdseye]\nsize = [20000, 15000]\n")
+    (tmp_path / "thick.toml").write_text("[render]\nline_thickness = 100000\n")
+    (tmp_path / "cam.jpg.yaml").write_bytes((TEST_IMAGES / "test1.jpg").read_bytes())
+    cam = json.loads(CAMERA.read_text())
+    cam["camera_matrix"] = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]
+    (tmp_path / "zero_cam.json").write_text(json.dumps(cam))
+    return tmp_path
+
+
+# (case id, arguments with {w} for the work folder, the words the error line must hold)
+CASES = [
+    ("video -o under a file", "video {w}/clip.mp4 -o {w}/a_file/o.mp4 --end 0.2 --quiet", "a_file is a file"),
+    ("video --telemetry under a file", "video {w}/clip.mp4 --telemetry {w}/a_file/t.csv --end 0.2", "a_file is a file"),
+    ("video -o = input", "video {w}/clip.mp4 -o {w}/clip.mp4", "refusing to overwrite the input"),
+    ("video --telemetry = another output", "video {w}/clip.mp4 -o {w}/o.mp4 --telemetry {w}/o.mp4",
+     "telemetry file must end"),
+    ("video --contact-sheet = input", "video {w}/clip.png --telemetry {w}/x.csv --contact-sheet {w}/clip.png",
+     "refusing to overwrite the input"),
+    ("video --contact-sheet .mp4", "video {w}/clip.mp4 --telemetry {w}/x.csv --contact-sheet {w}/s.mp4",
+     "cannot write an image as .mp4"),
+    ("video --telemetry .txt", "video {w}/clip.mp4 -o {w}/o.mp4 --telemetry {w}/t.txt", "must end in .csv or .jsonl"),
+    ("video -o /proc", "video {w}/clip.mp4 -o /proc/lanefinder_test.mp4 --end 0.2 --quiet", "/proc"),
+    ("video --start nan", "video {w}/clip.mp4 -o {w}/o.mp4 --start nan", "not a finite number"),
+    ("video --end -1", "video {w}/clip.mp4 -o {w}/o.mp4 --end -1", "not in the range"),
+    ("video still image", "video {w}/test3.jpg -o {w}/o.mp4", "still image, not a video"),
+    ("video folder", "video {w} -o {w}/o.mp4", "video not found"),
+    ("video huge view", "video {w}/clip.mp4 -o {w}/o.mp4 -c {w}/big.toml", "less than or equal to 8192"),
+    ("config binary garbage", "config --check {w}/garbage.toml", "garbage.toml"),
+    ("config --check X -o X", "config --check {w}/thick.toml -o {w}/thick.toml", "refusing to overwrite"),
+    ("config thickness", "config --check {w}/thick.toml", "render.line_thickness"),
+    ("image -o under a file", "image {w}/test3.jpg -o {w}/a_file/out", "a_file is a file"),
+    ("image camera is a JPEG", "synth --camera {w}/cam.jpg.yaml -o {w}/s --frames 1", "cannot read it as JSON"),
+    ("synth zero camera", "synth --camera {w}/zero_cam.json -o {w}/s --frames 1", "camera_matrix is not"),
+    ("synth --pitch -30", "synth --pitch -30 -o {w}/s", "not in the range"),
+    ("synth --seed -1", "synth --seed -1 -o {w}/s", "-1"),
+    ("synth -o under a file", "synth --frames 1 -o {w}/a_file/s", "a_file is a file"),
+    ("synth no -o", "synth --frames 1", "-o/--outdir"),
+    ("setup --lane-width -3", "setup --straight {w}/straight.jpg --lane-width -3 -o {w}/s.toml", "not in the range"),
+    ("setup --lane-width nan", "setup --straight {w}/straight.jpg --lane-width nan -o {w}/s.toml", "finite"),
+    ("setup preview = input", "setup --straight {w}/s_preview.png -o {w}/s.toml", "refusing to overwrite the input"),
+    ("plot abc", "plot {w}/bad.csv -o {w}/p.png", "time_s is not a number"),
+    ("plot binary", "plot {w}/garbage.toml -o {w}/p.png", "garbage.toml"),
+    ("plot -o = input", "plot {w}/t.csv -o {w}/t.csv", "refusing to overwrite the input"),
+    ("eval strings", "eval --gt {w}/gt.jsonl --pred {w}/strs.jsonl", "lanes must be lists of numbers"),
+    ("eval --json = gt", "eval --gt {w}/gt.jsonl --pred {w}/gt.jsonl --json {w}/gt.jsonl", "refusing to overwrite"),
+    ("calibrate huge board", "calibrate {w}/test3.jpg --board 1000000x1000000 -o {w}/c.json", "3 to 30"),
+    ("calibrate no board", "calibrate {w}/test3.jpg {w}/straight.jpg -o {w}/c.json", "no 9x6 chessboard"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("case", "args", "says"), CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_exit_2_and_no_input_is_touched(work, case, args, says):
+    inputs = sorted(p for p in work.iterdir() if p.is_file())
+    before = _sha(inputs)
+    p = run_cli(*args.format(w=work).split())
+    assert "Traceback" not in p.stderr
+    assert_one_error_line(p, 2, says)
+    assert _sha(inputs) == before
+    assert_nothing_hidden(work, work / "s", work / "out")
+    assert not (work / "o.mp4").exists() and not (work / "x.csv").exists()
+
+
+@pytest.mark.slow
+def test_synth_list_needs_no_folder():
+    p = run_cli("synth", "--list")
+    assert p.returncode == 0 and "sharp-curve" in p.stdout
+
+
+@pytest.mark.slow
+def test_images_with_the_same_name_do_not_overwrite_each_other(tmp_path):
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        shutil.copy(TEST_IMAGES / f"test{1 if sub == 'a' else 3}.jpg", tmp_path / sub / "x.jpg")
+    p = run_cli("image", tmp_path / "a" / "x.jpg", tmp_path / "b" / "x.jpg", "-o", tmp_path / "out")
+    assert p.returncode == 0, p.stderr
+    assert sorted(f.name for f in (tmp_path / "out").iterdir()) == ["results.jsonl", "x.jpg", "x_2.jpg"]
+    assert "x_2.jpg" in p.stdout
+
+
+@pytest.mark.slow
+def test_a_failing_command_leaves_an_existing_output_as_it_was(work):
+    (work / "o.mp4").write_bytes(b"the user's old video")
+    (work / "t2.csv").write_text("old telemetry\n")
+    # The contact sheet's name is refused before any work: neither output is touched.
+    p = run_cli("video", work / "clip.mp4", "-o", work / "o.mp4", "--telemetry", work / "t2.csv",
+                "--contact-sheet", work / "sheet.txt")
+    assert_one_error_line(p, 2, "cannot write an image as .txt")
+    assert (work / "o.mp4").read_bytes() == b"the user's old video"
+    assert (work / "t2.csv").read_text() == "old telemetry\n"
+
+
+# -- generated corrupt media ------------------------------------------------------------------
+def _encode(path: Path, size: tuple[int, int], n: int, codec: str, fmt: str | None = None) -> None:
+    w, h = size
+    with av.open(str(path), "w", format=fmt) as c:
+        s = c.add_stream(codec, rate=25)
+        s.width, s.height = w, h
+        s.pix_fmt = "yuv420p"
+        rng = np.random.default_rng(0)
+        for i in range(n):
+            img = np.full((h, w, 3), 60 + 10 * (i % 5), np.uint8)
+            img[h // 2:, :] = rng.integers(70, 110, (h - h // 2, w, 3))
+            f = av.VideoFrame.from_ndarray(img, format="bgr24")
+            f.pts = i
+            for pkt in s.encode(f):
+                c.mux(pkt)
+        for pkt in s.encode(None):
+            c.mux(pkt)
+
+
+def _faststart(src: Path, dst: Path) -> None:
+    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
+        s_in = i.streams.video[0]
+        s_out = o.add_stream_from_template(s_in)
+        for pkt in i.demux(s_in):
+            if pkt.dts is not None:
+                pkt.stream = s_out
+                o.mux(pkt)
+
+
+def _media(kind: str, folder: Path) -> Path:
+    data = CLIP.read_bytes()
+    if kind.startswith("cut-end-"):  # the clip keeps its index at the end
+        p = folder / f"{kind}.mp4"
+        p.write_bytes(data[: int(len(data) * int(kind.rsplit("-", 1)[1]) / 100)])
+    elif kind.startswith("cut-front-"):
+        whole = folder / "whole.mp4"
+        if not whole.exists():
+            _faststart(CLIP, whole)
+        p = folder / f"{kind}.mp4"
+        b = whole.read_bytes()
+        p.write_bytes(b[: int(len(b) * int(kind.rsplit("-", 1)[1]) / 100)])
+    elif kind == "flipped":
+        b = bytearray(data)
+        rng = np.random.default_rng(1)
+        for i in rng.integers(len(b) // 4, 3 * len(b) // 4, 400):
+            b[i] ^= 0xFF
+        p = folder / "flipped.mp4"
+        p.write_bytes(bytes(b))
+    elif kind == "jpeg-as-mp4":
+        p = folder / "still.mp4"
+        shutil.copy(TEST_IMAGES / "test1.jpg", p)
+    elif kind == "empty":
+        p = folder / "empty.mp4"
+        p.write_bytes(b"")
+    elif kind == "random":
+        p = folder / "random.mp4"
+        p.write_bytes(np.random.default_rng(2).integers(0, 256, 100_000, dtype=np.uint8).tobytes())
+    elif kind == "odd-size":
+        p = folder / "odd.mkv"
+        _encode(p, (641, 361), 10, "ffv1")
+    elif kind == "one-frame":
+        p = folder / "one.mp4"
+        _encode(p, (640, 360), 1, "libx264")
+    else:
+        raise AssertionError(kind)
+    return p
+
+
+MEDIA = ["cut-end-10", "cut-end-50", "cut-end-90", "cut-front-10", "cut-front-50", "cut-front-90", "flipped",
+         "jpeg-as-mp4", "empty", "random", "odd-size", "one-frame"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", MEDIA)
+def test_corrupt_and_odd_media_give_frames_or_one_clear_line(tmp_path, kind):
+    src = _media(kind, tmp_path)
+    before = _sha([src])
+    out, tele = tmp_path / "out" / "o.mp4", tmp_path / "out" / "t.csv"
+    p = run_cli("video", src, "-o", out, "--telemetry", tele, "--quiet")
+    assert "Traceback" not in p.stderr
+    assert _sha([src]) == before
+    assert_nothing_hidden(tmp_path, tmp_path / "out")
+    if p.returncode == 0:  # the frames that could be read, video and telemetry in step
+        info = VideoInfo.from_path(out)
+        rows = read_telemetry(tele)
+        assert info.total_frames == len(rows) > 0
+        if kind == "odd-size":
+            assert info.size == (642, 362) and "padded by one pixel" in p.stdout
+    else:
+        assert_one_error_line(p, 2)
+        assert not out.exists() and not tele.exists()
+    expected_ok = {"cut-front-50", "cut-front-90", "odd-size", "one-frame", "flipped"}
+    expected_error = {"cut-end-10", "cut-end-50", "cut-end-90", "jpeg-as-mp4", "empty", "random"}
+    if kind in expected_ok:
+        assert p.returncode == 0, p.stderr
+    if kind in expected_error:
+        assert p.returncode == 2, p.stdout
+    if kind.startswith("cut-end-"):
+        assert "cut short before its index" in p.stderr
+
+
+# -- faults: a full disk, Ctrl-C twice --------------------------------------------------------
+@pytest.fixture()
+def full_disk(tmp_path):
+    """A 3 MB file system (tmpfs) when the tests run as root; skip otherwise (see the ENOSPC test)."""
+    mnt = tmp_path / "full"
+    mnt.mkdir()
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        pytest.skip("a small tmpfs needs root; the ENOSPC writer test covers this case")
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mnt)], capture_output=True).returncode:
+        pytest.skip("cannot mount a tmpfs here; the ENOSPC writer test covers this case")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["video", "telemetry", "image", "synth"])
+def test_a_full_disk_is_one_clear_line_and_leaves_nothing(full_disk, work, command):
+    (full_disk / "old.csv").write_text("old\n")
+    if command == "video":
+        args = ["video", work / "clip.mp4", "-o", full_disk / "o.mp4", "--telemetry", full_disk / "old.csv",
+                "--quiet"]
+    elif command == "telemetry":
+        (full_disk / "filler").write_bytes(b"\0" * (3 * 2**20 - 64 * 1024))
+        args = ["video", work / "clip.mp4", "--telemetry", full_disk / "old.csv", "--quiet"]
+    elif command == "image":
+        args = ["image", TEST_IMAGES, "-o", full_disk / "out", "--stages", full_disk / "stages"]
+    else:
+        (full_disk / "filler").write_bytes(b"\0" * (3 * 2**20 - 512 * 1024))
+        args = ["synth", "--frames", "30", "-o", full_disk / "s"]
+    p = run_cli(*args)
+    assert p.returncode == 2, (p.returncode, p.stderr[-2000:])
+    assert_one_error_line(p, 2, "No space left on device")
+    assert (full_disk / "old.csv").read_text() == "old\n"
+    left = sorted(str(f.relative_to(full_disk)) for f in full_disk.rglob("*") if f.is_file())
+    assert left in (["old.csv"], ["filler", "old.csv"]), left
+
+
+def test_a_writer_that_hits_a_full_disk_leaves_nothing(tmp_path, monkeypatch):
+    from lanefinder import io as lio
+    from lanefinder.telemetry import TelemetryWriter
+
+    writer = TelemetryWriter(tmp_path / "t.jsonl")
+
+    def full(*_a, **_k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(writer._f, "write", full)
+    with pytest.raises(LaneFinderError, match="No space left on device"):
+        writer.write({"frame": 0})
+    assert list(tmp_path.iterdir()) == []
+    # And a set whose commit fails leaves nothing half in place.
+    monkeypatch.setattr(lio, "publish", full)
+    with pytest.raises(LaneFinderError, match="No space left"), lio.OutputSet() as outs:
+        outs.add(tmp_path / "a.txt").write_text("a")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_ctrl_c_twice_leaves_no_hidden_file(tmp_path):
+    out, tele = tmp_path / "o.mp4", tmp_path / "t.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(CLIP), "-o", str(out),
+                             "--telemetry", str(tele), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not any(f.stat().st_size > 100_000 for f in tmp_path.glob(".o.*")):
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert not list(tmp_path.glob(".*"))
+    if out.exists():  # the first Ctrl-C finished the outputs before the second arrived
+        assert VideoInfo.from_path(out).total_frames == len(read_telemetry(tele))
+
+
+def test_an_odd_frame_size_is_padded_when_encoded(tmp_path):
+    from lanefinder.video import VideoSink
+
+    info = VideoInfo(width=641, height=361, fps=Fraction(25), total_frames=3, duration_s=0.12, codec="h264")
+    with VideoSink(tmp_path / "o.mp4", info) as sink:
+        for _ in range(3):
+            sink.write(np.zeros((361, 641, 3), np.uint8))
+    assert sink.padded and VideoInfo.from_path(tmp_path / "o.mp4").size == (642, 362)
+
+
+def test_photos_without_a_board_are_passed_over_by_the_quick_look():
+    import cv2
+
+    from lanefinder.camera import board_visible
+
+    # The quick look (about 60 ms a photo) sees no board in any road photo, and every Udacity board.
+    assert not any(board_visible(cv2.imread(str(p), 0)) for p in sorted(TEST_IMAGES.glob("*.jpg")))
+    assert all(board_visible(cv2.imread(str(p), 0)) for p in sorted(CAL.glob("*.jpg"))[:5])
+
+
+def test_a_wrong_board_size_is_refused_quickly():
+    from lanefinder.camera import calibrate
+
+    with pytest.raises(LaneFinderError, match="7x7"):
+        calibrate(sorted(CAL.glob("*.jpg"))[:6], (7, 7))
