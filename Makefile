@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test test-fast lint bench eval check-videos clean
+.PHONY: install demo test test-fast lint bench eval eval-tune check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -35,8 +35,12 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench.py $(if $(wildcard ../shared/data/udacity/videos/project_video.mp4),--memory ../shared/data/udacity/videos/project_video.mp4)
 
+# Held-out seeds (never used for tuning); `eval-tune` is the tuning seed.
 eval: $(STAMP)
-	$(BIN)/python scripts/eval_synthetic.py --frames 100
+	$(BIN)/python scripts/eval_synthetic.py --frames 50 --seeds 101 102
+
+eval-tune: $(STAMP)
+	$(BIN)/python scripts/eval_synthetic.py --frames 100 --seeds 0 --out output/eval-tune
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py

@@ -120,6 +120,10 @@ def main() -> int:
     tracker_finder = LaneFinder(cfg)
     tracker_finder.birdseye(be.frame_size)
     stages["search+fit+track (pipeline)"] = _timed(lambda b: tracker_finder.process_binary(b, be), binaries)
+    far_finder = LaneFinder(cfg)
+    far_finder.birdseye(be.frame_size)
+    stages["far field (remap+threshold+follow)"] = _timed(lambda i: far_finder.extend_far(imgs[i], results[i], be),
+                                                          range(n))
     whole = LaneFinder(cfg)
     whole.birdseye(be.frame_size)
     copies = [im.copy() for im in imgs]

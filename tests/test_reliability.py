@@ -212,6 +212,10 @@ CASES = [
     ("plot -o = input", "plot {w}/t.csv -o {w}/t.csv", "refusing to overwrite the input"),
     ("eval strings", "eval --gt {w}/gt.jsonl --pred {w}/strs.jsonl", "lanes must be lists of numbers"),
     ("eval --json = gt", "eval --gt {w}/gt.jsonl --pred {w}/gt.jsonl --json {w}/gt.jsonl", "refusing to overwrite"),
+    ("setup --bottom nan", "setup --straight {w}/straight.jpg --bottom nan -o {w}/s.toml", "finite"),
+    ("eval binary truth", "eval --gt {w}/garbage.toml --pred {w}/gt.jsonl", "not JSON Lines"),
+    ("eval binary predictions", "eval --gt {w}/gt.jsonl --pred {w}/garbage.toml", "not JSON Lines"),
+    ("image one bad of two", "image {w}/test3.jpg {w}/garbage.toml -o {w}/out", "nothing was written"),
     ("calibrate huge board", "calibrate {w}/test3.jpg --board 1000000x1000000 -o {w}/c.json", "3 to 30"),
     ("calibrate no board", "calibrate {w}/test3.jpg {w}/straight.jpg -o {w}/c.json", "no 9x6 chessboard"),
 ]
@@ -228,6 +232,29 @@ def test_bad_input_is_one_line_exit_2_and_no_input_is_touched(work, case, args, 
     assert _sha(inputs) == before
     assert_nothing_hidden(work, work / "s", work / "out")
     assert not (work / "o.mp4").exists() and not (work / "x.csv").exists()
+
+
+@pytest.mark.slow
+def test_an_input_camera_in_the_output_folder_is_not_written_over(tmp_path):
+    cam = tmp_path / "camera.json"
+    shutil.copy(CAMERA, cam)
+    before = _sha([cam])
+    p = run_cli("synth", "--frames", "1", "--quiet", "--camera", cam, "-o", tmp_path)
+    assert_one_error_line(p, 2, "refusing to overwrite the input")
+    assert _sha([cam]) == before
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["camera.json"]
+
+
+@pytest.mark.slow
+def test_a_failed_image_run_replaces_nothing_and_leaves_no_folder(work):
+    out = work / "out"
+    out.mkdir()
+    (out / "test3.jpg").write_bytes(b"old")
+    (out / "results.jsonl").write_text("old\n")
+    p = run_cli("image", work / "test3.jpg", work / "garbage.toml", "-o", out, "--stages", work / "new" / "stages")
+    assert_one_error_line(p, 2, "nothing was written")
+    assert (out / "test3.jpg").read_bytes() == b"old" and (out / "results.jsonl").read_text() == "old\n"
+    assert not (work / "new").exists()  # the folders made for the outputs are gone again
 
 
 @pytest.mark.slow

@@ -70,17 +70,20 @@ def test_a_straight_synthetic_frame_gives_both_lines_within_2_px(tmp_path, camer
     assert result.width_m == pytest.approx(truth.width_m, abs=0.05)
 
 
-# Measured on 30 frames, seed 0 (see the closing note); thresholds a little below.
-# name: (min accuracy, max median offset error m, max p90 offset error m, max catastrophic rate)
+# Measured on 30 frames, seed 0, against the truth that runs as far as each marking is visible
+# (not to the end of the bird's-eye view, as before the far field: the accuracies are not
+# comparable with the earlier bars); thresholds a little below what was measured.
+# name: (min accuracy, max median offset error m, max p90 offset error m, max catastrophic rate,
+#        min accuracy 40-70 m ahead)
 BARS = {
-    "straight": (0.99, 0.02, 0.03, 0.0),
-    "curve": (0.99, 0.02, 0.03, 0.0),
-    "shadows": (0.99, 0.02, 0.03, 0.0),
-    "pavement": (0.99, 0.025, 0.04, 0.0),
-    "glare": (0.99, 0.02, 0.03, 0.0),
-    "worn": (0.99, 0.02, 0.03, 0.0),
-    "double-yellow": (0.99, 0.02, 0.03, 0.0),
-    "sharp-curve": (0.96, 0.025, 0.1, 0.05),
+    "straight": (0.985, 0.02, 0.03, 0.0, 0.83),
+    "curve": (0.99, 0.02, 0.03, 0.0, 0.97),
+    "shadows": (0.99, 0.02, 0.03, 0.0, 0.89),
+    "pavement": (0.99, 0.025, 0.04, 0.0, 0.93),
+    "glare": (0.92, 0.02, 0.03, 0.0, 0.15),
+    "worn": (0.965, 0.02, 0.03, 0.0, 0.62),
+    "double-yellow": (0.97, 0.02, 0.03, 0.0, 0.63),
+    "sharp-curve": (0.955, 0.025, 0.1, 0.05, 0.49),
 }
 
 
@@ -91,8 +94,9 @@ def test_accuracy_regression(name, tmp_path):
     process_video(folder / "video.mp4", None, load_config(folder / "config.toml"),
                   telemetry=folder / "t.jsonl", progress=False)
     rep = evaluate(read_ground_truth(folder / "gt.jsonl"), read_predictions(folder / "t.jsonl"))
-    min_acc, max_off, max_off90, max_cat = BARS[name]
+    min_acc, max_off, max_off90, max_cat, min_far = BARS[name]
     assert rep.accuracy >= min_acc
+    assert rep.band_accuracy["40-70"] >= min_far
     assert rep.offset_err_median_m <= max_off
     assert rep.offset_err_p90_m <= max_off90
     assert rep.catastrophic_rate <= max_cat
@@ -115,3 +119,35 @@ def test_synth_command_writes_a_complete_sequence(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "lanefinder", "synth", "--scenario", "moon", "-o", str(tmp_path)],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "unknown scenario" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "seed"), [("straight", 7), ("curve", 8), ("sharp-curve", 9)])
+def test_lines_are_followed_beyond_the_view_to_where_the_paint_is_seen(tmp_path, camera, name, seed):
+    # The truth runs to where a marking is 1.5 px wide (rows 440-450 at 720p, 46-68 m ahead);
+    # the bird's-eye view ends at row 460 (35 m). Measured on these seeds: every far truth
+    # point within 6 px, but in the sharp curve (R 90 m) the left line at row 440 lies 31 m to
+    # the side, beyond the far view's 20 m: there only the nearer far row is asked for.
+    folder = write_sequence(name, 1, tmp_path, seed=seed)
+    finder = LaneFinder(load_config(folder / "config.toml"))
+    r = Renderer(camera, Mount(), SCENARIOS[name], seed=seed)
+    img, truth = next(r.frames(1))
+    result = finder.process(img)
+    row = make_row(0, 0.0, result, finder.birdseye((1280, 720)))
+    far_rows = 0
+    for side, gt in (("left", truth.left_x), ("right", truth.right_x)):
+        pred = np.array(row[f"{side}_x"])
+        g = np.array(gt)
+        far = (np.array(truth.h_samples) < 460) & (g >= 0)
+        if name == "sharp-curve" and not far.any():
+            continue
+        assert far.any()
+        if name == "sharp-curve":
+            far &= np.array(truth.h_samples) >= 450
+        assert (pred[far] >= 0).all(), (side, pred[far], g[far])
+        assert np.abs(pred[far] - g[far]).max() < 8.0, (side, pred[far], g[far])
+        far_rows += int(far.sum())
+        assert row[f"{side}_range_m"] > 40.0
+        conf = np.array(row[f"{side}_x_conf"])
+        assert conf[far].max() < conf[np.array(truth.h_samples) > 600].min()  # confidence falls with distance
+    assert far_rows >= 2

@@ -230,9 +230,11 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
         click.echo(f"note: {src} -> {name} (another input has the same name)")
     if run.results:
         click.echo(f"wrote {len(run.rows)} image(s) and {Path(run.results).name} to {outdir}")
-    for src, reason in run.failures:
-        _fail(reason if src in reason else f"{src}: {reason}")
     if run.failures:
+        src, reason = run.failures[0]
+        first = reason if src in reason else f"{src}: {reason}"
+        more = f"{len(run.failures)} of {len(paths)} images failed, the first: " if len(run.failures) > 1 else ""
+        _fail(f"{more}{first}; nothing was written (all or nothing)")
         sys.exit(2)
 
 
@@ -301,8 +303,9 @@ def plot(telemetry: str, output: str) -> None:
 @click.option("--pitch", "pitch_deg", type=_Finite(-10.0, 15.0), default=None, help="Camera pitch, degrees down.")
 @click.option("-o", "--outdir", type=click.Path(), help="Folder for the sequence (required unless --list).")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
 def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, height_m: float | None,
-          pitch_deg: float | None, outdir: str, list_only: bool) -> None:
+          pitch_deg: float | None, outdir: str, list_only: bool, quiet: bool) -> None:
     """Render a synthetic dashcam sequence with exact ground truth.
 
     Writes video.mp4, gt.jsonl (per frame: curvature, radius, offset, width, TuSimple lanes),
@@ -321,7 +324,7 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
     mount = Mount(height_m if height_m is not None else mount.height_m,
                   pitch_deg if pitch_deg is not None else mount.pitch_deg)
     cam = load_camera(camera_path) if camera_path else None
-    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=True)
+    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet)
     click.echo(f"wrote {out}/video.mp4, gt.jsonl, camera.json, config.toml")
 
 
@@ -357,7 +360,7 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (JSON or OpenCV YAML).")
 @click.option("--lookahead", "lookahead_m", type=_Finite(5.0, 150.0), default=35.0, show_default=True,
               help="How far ahead the view reaches, m (with a camera file).")
-@click.option("--bottom", "bottom_fraction", type=click.FloatRange(0.5, 1.0), default=0.9375, show_default=True,
+@click.option("--bottom", "bottom_fraction", type=_Finite(0.5, 1.0), default=0.9375, show_default=True,
               help="Bottom row of the view as a fraction of the height (above the hood).")
 @click.option("--lane-width", "lane_width_m", type=_Finite(2.0, 6.0), default=3.7, show_default=True,
               help="The lane's width between line centres, m.")

@@ -23,6 +23,7 @@ __all__ = [
     "CameraConfig",
     "ColorConfig",
     "Config",
+    "FarConfig",
     "FitConfig",
     "LimitsConfig",
     "RenderConfig",
@@ -532,6 +533,44 @@ class TrackingConfig(_Section):
         return self
 
 
+class FarConfig(_Section):
+    """Following each line beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
+
+    Attributes
+    ----------
+    enabled : bool
+        Follow the lines beyond the view.
+    max_range_m : float
+        How far ahead of the bird's-eye bottom row to look, m.
+    window_m : float
+        Half-width of the search window at the view's top edge, m.
+    window_growth : float
+        How much the half-width grows per metre beyond it, m/m.
+    max_gap_m : float
+        Longest stretch without marking that is crossed (a dash gap), m.
+    min_rows : int
+        Far rows that must hold the marking for the far part to count.
+    confidence_decay_m : float
+        Beyond the view, a line's confidence falls by e every this many metres.
+    width_factor : float
+        The far view's width as a multiple of the bird's-eye view's, centred on it.
+
+    Examples
+    --------
+    >>> FarConfig().max_range_m
+    100.0
+    """
+
+    enabled: bool = True
+    max_range_m: Annotated[float, Field(gt=0, le=300)] = 100.0
+    window_m: Annotated[float, Field(gt=0, le=2)] = 0.35
+    window_growth: Annotated[float, Field(ge=0, le=0.1)] = 0.01
+    max_gap_m: Annotated[float, Field(gt=0, le=50)] = 15.0
+    min_rows: Annotated[int, Field(ge=2, le=100)] = 4
+    confidence_decay_m: Annotated[float, Field(gt=0, le=1000)] = 40.0
+    width_factor: Annotated[float, Field(ge=1, le=8)] = 6.0
+
+
 class RenderConfig(_Section):
     """How the lane is drawn on the frame.
 
@@ -614,6 +653,7 @@ class Config(_Section):
     search : SearchConfig
     fit : FitConfig
     tracking : TrackingConfig
+    far : FarConfig
     render : RenderConfig
     video : VideoConfig
     limits : LimitsConfig
@@ -631,6 +671,7 @@ class Config(_Section):
     search: SearchConfig = SearchConfig()
     fit: FitConfig = FitConfig()
     tracking: TrackingConfig = TrackingConfig()
+    far: FarConfig = FarConfig()
     render: RenderConfig = RenderConfig()
     video: VideoConfig = VideoConfig()
     limits: LimitsConfig = LimitsConfig()

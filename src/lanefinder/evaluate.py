@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +25,7 @@ import numpy as np
 from .errors import LaneFinderError
 
 __all__ = [
+    "BANDS_M",
     "PIXEL_THRESH",
     "PT_THRESH",
     "EvalReport",
@@ -36,6 +37,8 @@ __all__ = [
     "read_predictions",
 ]
 
+#: Distance bands of the per-band accuracy, m ahead of the camera.
+BANDS_M = ((0.0, 20.0), (20.0, 40.0), (40.0, 70.0), (70.0, math.inf))
 PIXEL_THRESH = 20.0
 PT_THRESH = 0.85
 
@@ -166,6 +169,15 @@ class EvalReport:
         Fraction of frames with no lane, a line off by over 50 px, or offset off by over 0.5 m.
     missing_frames : int
         Ground-truth frames with no prediction at all.
+    band_accuracy : dict of str to float or None
+        Share of the truth points in each distance band (``0-20``, ``20-40``, ``40-70``,
+        ``70+`` m ahead) that the best-matching prediction hits (TuSimple's per-point rule);
+        None for a band without truth points or without ``row_distance_m`` in the truth.
+    band_points : dict of str to int
+        Truth points per band.
+    lateral_err_6m_median, lateral_err_6m_p90, lateral_err_20m_median, lateral_err_20m_p90 : float or None
+        Lateral error of the lines 6 m and 20 m ahead, m, where the truth gives ``lateral``
+        and a prediction reaches that row.
 
     Examples
     --------
@@ -186,6 +198,12 @@ class EvalReport:
     radius_rel_err_median: float | None
     catastrophic_rate: float
     missing_frames: int
+    band_accuracy: dict[str, float | None] = field(default_factory=dict)
+    band_points: dict[str, int] = field(default_factory=dict)
+    lateral_err_6m_median: float | None = None
+    lateral_err_6m_p90: float | None = None
+    lateral_err_20m_median: float | None = None
+    lateral_err_20m_p90: float | None = None
 
     def table(self, name: str = "") -> str:
         """Format the figures as a two-line table.
@@ -212,14 +230,43 @@ class EvalReport:
                f"{self.catastrophic_rate:>8.3f}")
         return head + "\n" + row
 
+    def band_table(self, name: str = "", header: bool = True) -> str:
+        """Format the accuracy by distance band and the lateral errors as a table.
+
+        Parameters
+        ----------
+        name : str, optional
+            The row's label.
+        header : bool, optional
+            Start with the header line.
+
+        Returns
+        -------
+        str
+            The header (if asked) and one row.
+        """
+
+        def f(v: float | None, fmt: str) -> str:
+            return "-" if v is None else format(v, fmt)
+
+        bands = list(self.band_accuracy) or [_band_name(b) for b in BANDS_M]
+        head = f"{'':<14} " + " ".join(f"{'acc ' + b + ' m':>12}" for b in bands) + \
+            f" {'lat 6m med':>10} {'lat 6m p90':>10} {'lat 20m med':>11} {'lat 20m p90':>11}"
+        row = f"{name:<14} " + " ".join(f"{f(self.band_accuracy.get(b), '.4f'):>12}" for b in bands) + \
+            f" {f(self.lateral_err_6m_median, '.3f'):>10} {f(self.lateral_err_6m_p90, '.3f'):>10}" \
+            f" {f(self.lateral_err_20m_median, '.3f'):>11} {f(self.lateral_err_20m_p90, '.3f'):>11}"
+        return (head + "\n" + row) if header else row
+
 
 def _read_jsonl(path: Path) -> list[dict]:
     if not path.is_file():
         raise LaneFinderError(f"not found: {path}")
     try:
         return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    except json.JSONDecodeError as e:
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise LaneFinderError(f"{path}: not JSON Lines ({e})") from None
+    except OSError as e:
+        raise LaneFinderError(f"cannot read {path}: {e.strerror or e}") from None
 
 
 _ROW_NUMBERS = ("offset_m", "curvature_per_m", "radius_m", "run_time")
@@ -365,6 +412,8 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
         raise LaneFinderError("the ground truth has no frames")
     acc = fp = fn = 0.0
     off_err, k_err, r_rel = [], [], []
+    lat: dict[str, list[float]] = {"6": [], "20": []}
+    band_hits = np.zeros(len(BANDS_M)), np.zeros(len(BANDS_M))
     catastrophic = missing = 0
     for key, g in gt.items():
         p = pred.get(key)
@@ -373,18 +422,10 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
         lanes = p["lanes"] if p else []
         a, f_p, f_n = bench_frame(lanes, g["lanes"], g["h_samples"], float(p.get("run_time", 0) or 0) if p else 0)
         acc, fp, fn = acc + a, fp + f_p, fn + f_n
-        bad = not lanes
-        for gl in g["lanes"]:
-            gl = np.asarray(gl, float)
-            best = None
-            for pl in lanes:
-                pl = np.asarray(pl, float)
-                both = (gl >= 0) & (pl >= 0)
-                if both.any():
-                    err = float(np.mean(np.abs(gl[both] - pl[both])))
-                    best = err if best is None else min(best, err)
-            if best is None or best > 50:
-                bad = True
+        bad = not lanes or _lines_far_off(g["lanes"], lanes)
+        _count_bands(g, lanes, band_hits)
+        for dist, errs in lat.items():
+            errs.extend(_lateral_errors(g, lanes, dist))
         if p is not None and g.get("offset_m") is not None and p.get("offset_m") is not None:
             e = abs(float(p["offset_m"]) - float(g["offset_m"]))
             off_err.append(e)
@@ -396,10 +437,86 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
                 r_rel.append(abs(float(p["radius_m"]) - float(r_gt)) / abs(float(r_gt)))
         catastrophic += bad
     n = len(gt)
+    hits, totals = band_hits
+    return EvalReport(n, acc / n, fp / n, fn / n, _med(off_err), _p90(off_err), _med(k_err), _med(r_rel),
+                      catastrophic / n, missing,
+                      band_accuracy={_band_name(b): (float(h / t) if t else None)
+                                     for b, h, t in zip(BANDS_M, hits, totals, strict=True)},
+                      band_points={_band_name(b): int(t) for b, t in zip(BANDS_M, totals, strict=True)},
+                      lateral_err_6m_median=_med(lat["6"]), lateral_err_6m_p90=_p90(lat["6"]),
+                      lateral_err_20m_median=_med(lat["20"]), lateral_err_20m_p90=_p90(lat["20"]))
 
-    def med(v: list[float]) -> float | None:
-        return float(np.median(v)) if v else None
 
-    return EvalReport(n, acc / n, fp / n, fn / n, med(off_err),
-                      float(np.percentile(off_err, 90)) if off_err else None, med(k_err), med(r_rel),
-                      catastrophic / n, missing)
+def _med(v: list[float]) -> float | None:
+    return float(np.median(v)) if v else None
+
+
+def _p90(v: list[float]) -> float | None:
+    return float(np.percentile(v, 90)) if v else None
+
+
+def _band_name(band: tuple[float, float]) -> str:
+    return f"{band[0]:g}-{band[1]:g}" if math.isfinite(band[1]) else f"{band[0]:g}+"
+
+
+def _lines_far_off(gt_lanes: list, lanes: list) -> bool:
+    """Tell whether a truth line has no prediction within 50 px on average over the rows both have."""
+    for gl in gt_lanes:
+        gl = np.asarray(gl, float)
+        best = None
+        for pl in lanes:
+            pl = np.asarray(pl, float)
+            both = (gl >= 0) & (pl >= 0)
+            if both.any():
+                err = float(np.mean(np.abs(gl[both] - pl[both])))
+                best = err if best is None else min(best, err)
+        if best is None or best > 50:
+            return True
+    return False
+
+
+def _count_bands(g: dict, lanes: list, band_hits: tuple[np.ndarray, np.ndarray]) -> None:
+    """Add a frame's truth points, and those a prediction hits, to their distance bands.
+
+    Each truth line is compared with its best-matching prediction (TuSimple's rule per point:
+    within 20 px / cos(angle)); truth rows need ``row_distance_m`` to be placed in a band.
+    """
+    dists = g.get("row_distance_m")
+    if not dists or len(dists) != len(g["h_samples"]):
+        return
+    d = np.asarray(dists, float)
+    ys = np.asarray(g["h_samples"], float)
+    hits, totals = band_hits
+    for gl in g["lanes"]:
+        gl = np.asarray(gl, float)
+        thresh = PIXEL_THRESH / math.cos(lane_angle(gl, ys))
+        accs = [line_accuracy(pl, gl, thresh) for pl in lanes]
+        best = np.asarray(lanes[int(np.argmax(accs))], float) if lanes else np.full_like(gl, -2.0)
+        valid = gl >= 0
+        ok = valid & (best >= 0) & (np.abs(best - gl) < thresh)
+        for i, (lo, hi) in enumerate(BANDS_M):
+            inside = valid & (d >= lo) & (d < hi)
+            totals[i] += inside.sum()
+            hits[i] += (ok & inside).sum()
+
+
+def _lateral_errors(g: dict, lanes: list, dist: str) -> list[float]:
+    """Give the lateral errors (m) of the predicted lines at the row ``dist`` m ahead, where both exist."""
+    at = (g.get("lateral") or {}).get(dist)
+    if not at or not lanes:
+        return []
+    ys = np.asarray(g["h_samples"], float)
+    out = []
+    for x_gt in at["x"]:
+        best = None
+        for pl in lanes:
+            pl = np.asarray(pl, float)
+            valid = pl >= 0
+            if valid.sum() < 2 or not (ys[valid].min() <= at["y"] <= ys[valid].max()):
+                continue
+            x = float(np.interp(at["y"], ys[valid], pl[valid]))
+            e = abs(x - x_gt) * at["m_per_px"]
+            best = e if best is None else min(best, e)
+        if best is not None:
+            out.append(best)
+    return out

@@ -36,13 +36,14 @@ class ImageRun:
     Attributes
     ----------
     rows : list of dict
-        One row per image done, as written to ``results.jsonl``.
+        One row per image, as written to ``results.jsonl``; none when any image failed (all
+        or nothing: then no output is written).
     failures : list of (str, str)
         (image, reason) of each image that could not be done.
     renamed : list of (str, str)
         (image, output) where an output was renamed so that it does not overwrite another.
     results : str or None
-        The results file, when any image was done.
+        The results file, when it was written.
 
     Examples
     --------
@@ -152,10 +153,14 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
             write_image(dest, annotate(frame, result, be, cfg.render), outputs=outs)
             if stages_dir:
                 write_stages(Path(stages_dir), dest.stem, frame, finder, outputs=outs)
-            row = {"image": str(p), "output": str(dest), **lane_row(result, be), "ms": round(ms, 2)}
+            row = {"image": str(p), "output": str(dest), **lane_row(result, be, cfg.far.confidence_decay_m),
+                   "ms": round(ms, 2)}
             rows.append(row)
             if on_row:
                 on_row(row)
-        if rows:
+        if failures:  # all or nothing: a bad input leaves every output as it was
+            outs.discard()
+            rows = []
+        elif rows:
             atomic_write_text(results, "".join(json.dumps(r) + "\n" for r in rows), outputs=outs)
     return ImageRun(rows=rows, failures=failures, renamed=renamed, results=str(results) if rows else None)

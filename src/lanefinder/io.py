@@ -163,13 +163,16 @@ def _signals_held() -> Iterator[None]:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _make_folder(folder: Path) -> None:
+def _make_folder(folder: Path) -> list[Path]:
+    """Create a folder and its missing parents; give the ones created, deepest first."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
         raise LaneFinderError(f"cannot create the folder {folder}: a file is in the way") from None
     except OSError as e:
         raise LaneFinderError(f"cannot create the folder {folder}: {e.strerror or e}") from None
+    return missing
 
 
 class OutputSet:
@@ -211,6 +214,7 @@ class OutputSet:
     def __init__(self, inputs: Iterable[str | Path] = ()):
         self._inputs = {Path(p).resolve(): Path(p) for p in inputs}
         self._pending: list[tuple[Path, Path]] = []
+        self._made: list[Path] = []
         self.outputs: list[Path] = []
 
     def check(self, path: str | Path) -> Path:
@@ -269,7 +273,7 @@ class OutputSet:
             made or written.
         """
         dest = self.check(path)
-        _make_folder(dest.parent)
+        self._made += _make_folder(dest.parent)
         try:
             fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=suffix or dest.suffix, dir=dest.parent)
         except OSError as e:
@@ -291,11 +295,19 @@ class OutputSet:
                 self.discard()
 
     def discard(self) -> None:
-        """Remove the temporary files that are left; the destinations stay as they were."""
+        """Remove the temporary files that are left, and the folders made for them if empty."""
         with _signals_held():
             for tmp, _ in self._pending:
                 tmp.unlink(missing_ok=True)
             self._pending = []
+            self._remove_folders()
+
+    def _remove_folders(self) -> None:
+        """Remove the folders this set created, where they are still empty."""
+        for folder in sorted(set(self._made), key=lambda p: -len(p.parts)):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        self._made = []
 
     def __enter__(self) -> OutputSet:
         return self

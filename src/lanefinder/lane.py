@@ -45,7 +45,14 @@ class Line:
         Marking pixels the measurement was fitted on (0 when nothing was measured).
     range_m : float
         How far ahead the measured marking reaches, metres along the road from the bird's-eye
-        bottom row (the d of ``fit_m``); NaN when the line was not found this frame.
+        bottom row (the d of ``fit_m``): beyond the view when the far field followed it; NaN
+        when the line was not found this frame.
+    far_fit_px : (3,) ndarray or None
+        The line beyond the bird's-eye view's top edge, (a, b, c) in bird's-eye pixels, valid
+        for y from ``far_end_px`` to 0 (see :mod:`lanefinder.farfield`); None when the marking
+        was not followed beyond the view.
+    far_end_px : float
+        Bird's-eye y (negative) of the farthest marking followed; NaN without a far part.
 
     Examples
     --------
@@ -61,6 +68,8 @@ class Line:
     inferred: bool
     n_pixels: int = 0
     range_m: float = math.nan
+    far_fit_px: np.ndarray | None = None
+    far_end_px: float = math.nan
 
     @property
     def shown(self) -> bool:

@@ -10,6 +10,7 @@ tracker transition (:mod:`lanefinder.tracking`), whose verdict becomes a
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -17,8 +18,9 @@ from .birdseye import BirdsEye, make_birdseye
 from .camera import CameraModel, load_camera, udacity_camera
 from .config import Config
 from .errors import LaneFinderError
+from .farfield import FarView, follow_line, make_farview
 from .geometry import Scale, lane_geometry
-from .lane import LaneResult
+from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measurer, measure
 from .search import Pixels
@@ -143,6 +145,7 @@ class LaneFinder:
         self.track = Track()
         self._birdseye: BirdsEye | None = None
         self._measurer: Measurer | None = None
+        self._farview: tuple[BirdsEye, FarView | None] | None = None
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
         """Return the (cached) bird's-eye set-up for a frame size.
@@ -206,7 +209,43 @@ class LaneFinder:
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
-        return self.process_binary(binary, be, view)
+        return self.extend_far(frame, self.process_binary(binary, be, view), be)
+
+    def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
+        """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            The raw frame, BGR.
+        result : LaneResult
+            The frame's result from the near view.
+        be : BirdsEye
+            Its set-up.
+
+        Returns
+        -------
+        LaneResult
+            The same result with each line's far part (``far_fit_px``, ``far_end_px``) and,
+            for a line found this frame, its ``range_m`` extended; the lane numbers at the car
+            are unchanged.
+        """
+        if not (result.left.shown or result.right.shown):
+            return result
+        if self._farview is None or self._farview[0] is not be:
+            self._farview = (be, make_farview(be, self.config.far))
+        fv = self._farview[1]
+        if fv is None:
+            return result
+        far_binary = threshold(fv.warp(frame), self.config.threshold, be.xm_per_px)
+        lines = {}
+        for side in SIDES:
+            line = getattr(result, side)
+            far = follow_line(far_binary, fv, line.fit_px, be.xm_per_px, self.config.far) if line.shown else None
+            if far is not None:
+                lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,
+                                      range_m=far.range_m if line.found else line.range_m)
+        return replace(result, **lines) if lines else result
 
     def process_binary(self, binary: np.ndarray, be: BirdsEye, view: np.ndarray | None = None) -> LaneResult:
         """Measure and track on a bird's-eye binary.

@@ -13,7 +13,7 @@ from .birdseye import BirdsEye
 from .config import RenderConfig
 from .errors import LaneFinderError
 from .geometry import poly_x
-from .lane import LaneResult
+from .lane import LaneResult, Line
 from .search import SearchResult
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "draw_debug",
     "draw_hud",
     "draw_lane",
+    "far_polyline",
     "hud_lines",
     "lane_polylines",
     "search_view",
@@ -68,6 +69,41 @@ def lane_polylines(result: LaneResult, be: BirdsEye, n: int = N_SAMPLES) -> tupl
     left, right = (np.column_stack([poly_x(line.fit_px, y), y]) for line in result.lines)
     pts = be.to_frame(np.vstack([left, right]))
     return pts[:n], pts[n:]
+
+
+def far_polyline(line: Line, be: BirdsEye, n: int = 16) -> np.ndarray | None:
+    """Map a line's far part (beyond the bird's-eye view) onto the original frame.
+
+    Parameters
+    ----------
+    line : Line
+        A line with a far part (``far_fit_px``), or without.
+    be : BirdsEye
+        The set-up it was found with.
+    n : int
+        Points, denser towards the far end (where the frame's rows are far apart on the road).
+
+    Returns
+    -------
+    (n, 2) ndarray or None
+        Points (x, y) in frame pixels from the farthest marking followed to the view's top edge;
+        None without a far part.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> from lanefinder.lane import Line
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> line = Line(fit_px=np.array([0.0, 0.0, 125.0]), fit_m=None, confidence=0.9, found=True, inferred=False,
+    ...             far_fit_px=np.array([0.0, 0.0, 125.0]), far_end_px=-500.0)
+    >>> pts = far_polyline(line, be)
+    >>> pts.shape, bool(pts[0, 1] < pts[-1, 1] <= 461)
+    ((16, 2), True)
+    """
+    if line.far_fit_px is None or not line.far_end_px < 0:
+        return None
+    y = -np.geomspace(-line.far_end_px, 0.5, n)
+    return be.to_frame(np.column_stack([poly_x(line.far_fit_px, y), y]))
 
 
 def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderConfig) -> np.ndarray:
@@ -123,6 +159,10 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
                 cv2.line(frame, tuple(p[i]), tuple(p[i + 1]), color, max(1, t // 2), cv2.LINE_AA)
         else:
             cv2.polylines(frame, [p], False, color, t, cv2.LINE_AA)
+    for line, color in zip(result.lines, (cfg.left_color, cfg.right_color), strict=True):
+        far = far_polyline(line, be)
+        if far is not None:  # beyond the view, as far as the marking was followed: thinner
+            cv2.polylines(frame, [np.round(far).astype(np.int32)], False, color, max(1, t // 3), cv2.LINE_AA)
     return frame
 
 

@@ -29,12 +29,13 @@ import numpy as np
 from .camera import CameraModel
 from .config import LANE_SPAN_PX, LANE_WIDTH_M, VIEW_SIZE_PX, default_dst
 from .errors import LaneFinderError
-from .io import OutputSet, atomic_write_text
+from .io import OutputSet, atomic_write_text, check_outputs
 from .telemetry import h_samples as tusimple_rows
 
 __all__ = [
     "DASH_M",
     "GAP_M",
+    "LATERAL_AT_M",
     "MARKING_M",
     "SCENARIOS",
     "Conditions",
@@ -50,6 +51,8 @@ __all__ = [
 DASH_M, GAP_M = 3.0, 9.0
 #: Marking width, m.
 MARKING_M = 0.15
+#: Distances ahead of the camera, m, at which the truth gives each line's lateral position.
+LATERAL_AT_M = (6.0, 20.0)
 
 
 @dataclass(frozen=True)
@@ -193,7 +196,13 @@ class FrameTruth:
     h_samples : list of int
         The TuSimple rows, pixels.
     left_x, right_x : list of float
-        Each line's x in the distorted frame at those rows, pixels; -2 where absent.
+        Each line's x in the distorted frame at those rows, pixels; -2 where absent.  The
+        truth runs as far as the marking is at least 1.5 px wide (see ``Renderer.visible_m``).
+    row_distance_m : list of float
+        Distance ahead of the camera of the road seen at each row's centre, m; -1 above the road.
+    lateral : dict
+        For each distance in ``LATERAL_AT_M`` (keys ``"6"``, ``"20"``): the row ``y`` of the
+        road that far ahead, ``m_per_px`` across the road there, and both lines' ``x`` (pixels).
 
     Examples
     --------
@@ -212,6 +221,8 @@ class FrameTruth:
     h_samples: list[int]
     left_x: list[float]
     right_x: list[float]
+    row_distance_m: list[float] = field(default_factory=list)
+    lateral: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """Give the row of ``gt.jsonl``: the fields, a TuSimple ``raw_file`` key and ``lanes``.
@@ -383,13 +394,48 @@ class Renderer:
         d2 = g["curvature"] + g["curvature_rate"] * z0
         k = d2 / (1 + d1 * d1) ** 1.5
         rows = tusimple_rows(self.size[1])
+        lateral = {}
+        for z in LATERAL_AT_M:
+            y, xs = self._line_image_at(g, z)
+            lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
+                                 "x": [round(x, 2) for x in xs]}
         return FrameTruth(index, round(t, 4), float(k), float(1 / abs(k)) if abs(k) > 1e-9 else None,
                           float(-self.centre(g, z0)), float(g["width"]), rows,
-                          self._line_rows(g, -0.5, rows), self._line_rows(g, 0.5, rows))
+                          self._line_rows(g, -0.5, rows), self._line_rows(g, 0.5, rows),
+                          self._row_distances(rows), lateral)
+
+    @property
+    def visible_m(self) -> float:
+        """Give the farthest distance at which a marking is at least 1.5 px wide, m (at most 150 m)."""
+        return float(min(150.0, self.camera.camera_matrix[0, 0] * MARKING_M / 1.5))
+
+    def _row_distances(self, rows: list[int]) -> list[float]:
+        """Give the distance ahead (m) of the road seen at each row's centre column; -1 above the road."""
+        w = self.size[0]
+        pts = np.array([[(w - 1) / 2, r] for r in rows], np.float64).reshape(-1, 1, 2)
+        norm = cv2.undistortPoints(pts, self.camera.camera_matrix, self.camera.dist_coeffs).reshape(-1, 2)
+        rays = np.column_stack([norm, np.ones(len(norm))]) @ self.rot
+        out = []
+        for ray in rays:
+            out.append(round(float(self.mount.height_m / ray[1] * ray[2]), 3) if ray[1] > 1e-6 else -1.0)
+        return out
+
+    def _line_image_at(self, g: dict, z: float) -> tuple[float, list[float]]:
+        """Give the row of the road ``z`` m ahead and both lines' x there, distorted frame pixels."""
+        xs = [self.centre(g, z) - 0.5 * g["width"], self.centre(g, z) + 0.5 * g["width"]]
+        pts = np.array([[x, self.mount.height_m, z] for x in xs])
+        rvec, _ = cv2.Rodrigues(self.rot)
+        img, _ = cv2.projectPoints(pts, rvec, np.zeros(3), self.camera.camera_matrix, self.camera.dist_coeffs)
+        img = img.reshape(-1, 2)
+        return float(img[:, 1].mean()), [float(v) for v in img[:, 0]]
 
     def _line_rows(self, g: dict, side: float, rows: list[int]) -> list[float]:
-        """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent."""
-        z = np.linspace(0.5, self.z_far, 600)
+        """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent.
+
+        The truth runs as far as the marking is visible (:attr:`visible_m`), not to the end of
+        the pipeline's view.
+        """
+        z = np.geomspace(0.5, self.visible_m, 1500)
         x = self.centre(g, z) + side * g["width"]
         pts = np.column_stack([x, np.full_like(z, self.mount.height_m), z])
         cam = pts @ self.rot.T
@@ -609,6 +655,10 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         raise LaneFinderError("--frames must be at least 1")
     out = Path(out_dir)
     cam = camera or udacity_camera()
+    source = Path(cam.source) if cam.source and Path(cam.source).is_file() else None
+    inputs = [source] if source else []
+    check_outputs([out / n for n in ("video.mp4", "gt.jsonl", "camera.json", "config.toml", "scenario.json")],
+                  inputs)  # before any rendering
     renderer = Renderer(cam, mount or Mount(), scenario, seed)
     w, h = cam.image_size
     info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
@@ -616,10 +666,10 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     from tqdm import tqdm
 
     # All five files are put in place together, only when all are written.
-    with OutputSet() as outs:
+    with OutputSet(inputs=inputs) as outs:
         sink = VideoSink(out / "video.mp4", info, preset="veryfast", crf=14, outputs=outs)
         try:
-            for img, truth in tqdm(renderer.frames(n_frames, fps), total=n_frames, disable=not progress,
+            for img, truth in tqdm(renderer.frames(n_frames, fps), total=n_frames, disable=None if progress else True,
                                    desc=scenario.name, unit="frame"):
                 sink.write(img)
                 rows.append(json.dumps(truth.to_json()))

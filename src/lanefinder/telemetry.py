@@ -27,7 +27,9 @@ from typing import Any
 import numpy as np
 
 from .birdseye import BirdsEye
+from .config import FarConfig
 from .errors import LaneFinderError
+from .farfield import row_confidence
 from .geometry import poly_x
 from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
@@ -51,11 +53,12 @@ def _paired(name: str) -> list[str]:
 
 
 #: Per-line columns: the suffix of ``left_<name>``/``right_<name>``, in column order.
-LINE_FIELDS = ("found", "inferred", "conf", "fit_m", "fit_px", "x", "range_m")
+LINE_FIELDS = ("found", "inferred", "conf", "fit_m", "fit_px", "x", "range_m", "x_conf")
 FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *_paired("conf"),
           "radius_m", "curvature_per_m", "offset_m", "width_m", "misses", *_paired("fit_m"), *_paired("fit_px"),
-          "h_samples", *_paired("x"), *_paired("range_m")]
-LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x")}
+          "h_samples", *_paired("x"), *_paired("range_m"), *_paired("x_conf")]
+LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x"), *_paired("x_conf")}
+_DEFAULT_DECAY_M = FarConfig().confidence_decay_m
 BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
 
 
@@ -80,7 +83,8 @@ def h_samples(frame_height: int) -> list[int]:
     return [round(r * frame_height / 720) for r in range(400, 720, 10)]
 
 
-def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> list[float]:
+def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int], far_fit_px: np.ndarray | None = None,
+                   far_end_px: float = math.nan) -> list[float]:
     """Map a bird's-eye line fit onto the original frame and sample its x at given rows.
 
     The fit is followed from the bird's-eye top down past its bottom edge (the road plane goes
@@ -94,6 +98,11 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> 
         The set-up.
     rows : list of int
         Rows of the original frame.
+    far_fit_px : (3,) ndarray, optional
+        The line beyond the view's top edge (``Line.far_fit_px``), followed up to
+        ``far_end_px`` (negative bird's-eye y).
+    far_end_px : float, optional
+        Where the far part ends.
 
     Returns
     -------
@@ -113,6 +122,10 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int]) -> 
     w_f, h_f = be.frame_size
     y = np.linspace(0, 2.0 * h, 160)
     x = poly_x(fit_px, y)
+    if far_fit_px is not None and far_end_px < 0:
+        # The far part: dense in the frame's rows (they are far apart on the road there).
+        y_far = -np.geomspace(-far_end_px, 0.5, 120)
+        y, x = np.concatenate([y_far, y]), np.concatenate([poly_x(far_fit_px, y_far), x])
     und = be.to_undistorted(np.column_stack([x, y]))
     # Only where the undistorted point is (nearly) in view: the lens polynomial is not
     # monotonic far outside the calibrated field, and the road behind the camera is not seen.
@@ -145,14 +158,27 @@ def _coeffs(c: np.ndarray | None) -> list[float] | None:
     return None if c is None else [float(f"{v:.8g}") for v in c]
 
 
-def _line_fields(line: Line, be: BirdsEye, rows: list[int]) -> dict[str, Any]:
+def _line_fields(line: Line, be: BirdsEye, rows: list[int], decay_m: float) -> dict[str, Any]:
     """One line's telemetry values, keyed by :data:`LINE_FIELDS`."""
+    xs = line_x_at_rows(line.fit_px, be, rows, line.far_fit_px, line.far_end_px)
     return {"found": line.found, "inferred": line.inferred, "conf": round(line.confidence, 4),
             "fit_m": _coeffs(line.fit_m), "fit_px": _coeffs(line.fit_px),
-            "x": line_x_at_rows(line.fit_px, be, rows), "range_m": _num(line.range_m, 2)}
+            "x": xs, "range_m": _num(line.range_m, 2), "x_conf": _row_confidences(line, be, rows, xs, decay_m)}
 
 
-def lane_row(r: LaneResult, be: BirdsEye) -> dict[str, Any]:
+def _row_confidences(line: Line, be: BirdsEye, rows: list[int], xs: list[float], decay_m: float) -> list[float]:
+    """Give the line's confidence at each row: as measured in the view, falling beyond; 0 where absent."""
+    pts = np.array([[x, r] for x, r in zip(xs, rows, strict=True) if x >= 0], np.float64)
+    if not len(pts) or line.confidence <= 0:
+        return [0.0] * len(rows)
+    h = be.size[1]
+    d = (h - be.from_frame(pts)[:, 1]) * be.ym_per_px
+    it = iter(d.tolist())
+    return [round(row_confidence(line.confidence, next(it), h * be.ym_per_px, decay_m), 3) if x >= 0 else 0.0
+            for x in xs]
+
+
+def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M) -> dict[str, Any]:
     """Return the row fields of one result, without the frame's number and time.
 
     The image job writes these after its own fields; :func:`make_row` puts the frame number
@@ -164,6 +190,9 @@ def lane_row(r: LaneResult, be: BirdsEye) -> dict[str, Any]:
         The frame's result.
     be : BirdsEye
         The set-up it was found with (to map the lines back onto the frame).
+    decay_m : float, optional
+        ``far.confidence_decay_m`` of the run's config: how fast the per-row confidence
+        (``*_x_conf``) falls beyond the view.
 
     Returns
     -------
@@ -182,7 +211,7 @@ def lane_row(r: LaneResult, be: BirdsEye) -> dict[str, Any]:
     ('re-detect', True, [400, 410, 420], 32)
     """
     rows = h_samples(be.frame_size[1])
-    per_line = {side: _line_fields(line, be, rows) for side, line in zip(SIDES, r.lines, strict=True)}
+    per_line = {side: _line_fields(line, be, rows, decay_m) for side, line in zip(SIDES, r.lines, strict=True)}
     out: dict[str, Any] = {"state": r.state}
     for key in FIELDS[3:]:
         side, _, name = key.partition("_")
@@ -194,7 +223,8 @@ def lane_row(r: LaneResult, be: BirdsEye) -> dict[str, Any]:
     return {k: out[k] for k in FIELDS[2:]}
 
 
-def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye) -> dict[str, Any]:
+def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye,
+             decay_m: float = _DEFAULT_DECAY_M) -> dict[str, Any]:
     """Return the telemetry row of one frame.
 
     Parameters
@@ -207,6 +237,8 @@ def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye) -> dict[str
         The frame's result.
     be : BirdsEye
         The set-up it was found with.
+    decay_m : float, optional
+        ``far.confidence_decay_m`` of the run's config.
 
     Returns
     -------
@@ -223,7 +255,7 @@ def make_row(index: int, time_s: float, r: LaneResult, be: BirdsEye) -> dict[str
     >>> row["frame"], row["state"], row["width_m"], row["left_x"][0]
     (7, 'lost', None, -2.0)
     """
-    return {"frame": index, "time_s": round(time_s, 4), **lane_row(r, be)}
+    return {"frame": index, "time_s": round(time_s, 4), **lane_row(r, be, decay_m)}
 
 
 class TelemetryWriter:

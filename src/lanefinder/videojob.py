@@ -294,7 +294,7 @@ class _Run:
         """Find, record and count one frame; returns the annotated image when ``draw`` asks for it."""
         result = self.finder.process(f.image)
         if writer:
-            writer.write(make_row(f.index, f.time_s, result, self.be))
+            writer.write(make_row(f.index, f.time_s, result, self.be, self.finder.config.far.confidence_decay_m))
         if self.on_result:
             self.on_result(f.index, result)
         out = None
@@ -315,7 +315,7 @@ class _Run:
 
         interrupt = threading.Event()
         undo_signal = _stop_on_signals(interrupt)
-        bar = tqdm(total=self.expected, unit="frame", disable=not progress, dynamic_ncols=True, desc=name)
+        bar = tqdm(total=self.expected, unit="frame", disable=None if progress else True, dynamic_ncols=True, desc=name)
         try:
             for f in threads.frames():
                 if interrupt.is_set():

@@ -1,0 +1,308 @@
+"""The far field: each line followed beyond the bird's-eye view, as far as its marking is seen.
+
+The bird's-eye view ends about 35 m ahead (the default set-up), while markings stay visible to
+70-100 m at 720p.  The far view continues the bird's-eye plane beyond its top edge, with the
+same columns (so the same x, the same metres per pixel across and the same threshold) and one
+row per row of the frame (so it holds what the camera resolves, no more): about 30 rows at 720p.
+One remap takes the raw frame to it.
+
+Each shown line is then followed from the top of the near view outwards: its fit, extended,
+predicts the marking's column row by row; the marking pixels found in a window around the
+prediction (the window widens with distance) correct it as the search goes; gaps up to
+``far.max_gap_m`` (a dash period) are crossed.  A correction c1*s + c2*s^2 (s: bird's-eye pixels
+beyond the top edge, so it is zero and smooth where the near fit ends) is fitted to what was
+found, and the line's far part is the near fit plus that correction, as far as the farthest
+marking found.  The near fit, and so the lane numbers at the car, are not changed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .birdseye import BirdsEye
+from .config import FarConfig
+from .geometry import poly_x
+
+__all__ = ["FarLine", "FarView", "follow_line", "make_farview", "row_confidence"]
+
+
+@dataclass(frozen=True, eq=False)
+class FarView:
+    """The road beyond the bird's-eye view: its columns, one row per frame row.
+
+    Attributes
+    ----------
+    v_px : (K,) float ndarray
+        Bird's-eye y of each row (negative: beyond the top edge), farthest first.
+    d_m : (K,) float ndarray
+        Distance of each row ahead of the bird's-eye bottom row, m.
+    map1, map2 : ndarray
+        The ``cv2.remap`` tables from the raw frame.
+    width : int
+        Columns: ``far.width_factor`` times the bird's-eye view's width, centred on it (lines
+        that curve away leave the near view's width far ahead).
+    u0_px : float
+        Bird's-eye x of the first column.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> from lanefinder.config import FarConfig
+    >>> fv = make_farview(LaneFinder().birdseye((1280, 720)), FarConfig())
+    >>> fv.width, fv.u0_px, len(fv.v_px), round(float(fv.d_m[-1]), 1), round(float(fv.d_m[0]), 1)
+    (2400, -1000.0, 27, 30.4, 95.8)
+    """
+
+    v_px: np.ndarray
+    d_m: np.ndarray
+    map1: np.ndarray
+    map2: np.ndarray
+    width: int
+    u0_px: float
+
+    def warp(self, frame: np.ndarray) -> np.ndarray:
+        """Map a raw frame to the far view, in one remap.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            A raw frame of the set-up's size.
+
+        Returns
+        -------
+        (K, width, 3) uint8 ndarray
+            The far view, farthest row first.
+        """
+        return cv2.remap(frame, self.map1, self.map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
+def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
+    """Build the far view of a bird's-eye set-up.
+
+    Parameters
+    ----------
+    be : BirdsEye
+        The near set-up.
+    cfg : FarConfig
+        ``max_range_m`` bounds how far ahead the rows go (from the bird's-eye bottom row).
+
+    Returns
+    -------
+    FarView or None
+        None when the frame shows nothing beyond the near view (its top edge is at the
+        horizon, or ``far.enabled`` is off).
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> from lanefinder.config import FarConfig
+    >>> fv = make_farview(LaneFinder().birdseye((1280, 720)), FarConfig())
+    >>> bool(np.all(np.diff(fv.d_m) < 0))  # farthest row first
+    True
+    """
+    if not cfg.enabled:
+        return None
+    w, h = be.size
+    d_top = h * be.ym_per_px
+    if cfg.max_range_m <= d_top:
+        return None
+    v_min = h - cfg.max_range_m / be.ym_per_px
+    v = np.linspace(0.0, v_min, 4000)
+    # Where the view's middle column meets each row of the (undistorted) frame.
+    und = be.to_undistorted(np.column_stack([np.full_like(v, w / 2), v]))
+    y = und[:, 1]
+    ok = np.isfinite(y) & np.logical_and.accumulate(np.concatenate([[True], np.diff(y) < 0]))
+    ok &= (y >= 0) & (y < be.frame_size[1])
+    if ok.sum() < 2:
+        return None
+    v, y = v[ok], y[ok]
+    # One far row per frame row: rows at whole-pixel steps up from the near view's top edge.
+    steps = np.arange(1, int(y[0] - y[-1]) + 1)
+    if steps.size < 2:
+        return None
+    v_rows = np.interp(y[0] - steps, y[::-1], v[::-1])[::-1]  # farthest first
+    width = round(w * cfg.width_factor)
+    u0 = (w - width) / 2
+    cols = u0 + np.arange(width, dtype=np.float64)
+    grid_u, grid_v = np.meshgrid(cols, v_rows)
+    frame_pts = be.to_frame(np.column_stack([grid_u.ravel(), grid_v.ravel()]))
+    map_x = frame_pts[:, 0].reshape(grid_u.shape).astype(np.float32)
+    map_y = frame_pts[:, 1].reshape(grid_u.shape).astype(np.float32)
+    map1, map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+    return FarView(v_rows, (h - v_rows) * be.ym_per_px, map1, map2, width, float(u0))
+
+
+@dataclass(frozen=True, eq=False)
+class FarLine:
+    """A line's far part: where its marking was followed beyond the near view.
+
+    Attributes
+    ----------
+    fit_px : (3,) ndarray
+        (a, b, c) of x = a*y^2 + b*y + c in bird's-eye pixels, for y from ``end_px`` to 0.
+    end_px : float
+        Bird's-eye y of the farthest marking found (negative).
+    range_m : float
+        Its distance ahead of the bird's-eye bottom row, m.
+    n_rows : int
+        Far rows where marking pixels were found.
+    support : float
+        Share of the far rows searched, up to ``end_px``, that held marking pixels.
+
+    Examples
+    --------
+    >>> far = FarLine(fit_px=np.array([0.0, 0.0, 125.0]), end_px=-400.0, range_m=70.0, n_rows=9, support=0.6)
+    >>> far.range_m
+    70.0
+    """
+
+    fit_px: np.ndarray
+    end_px: float
+    range_m: float
+    n_rows: int
+    support: float
+
+
+def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_px: float,
+                cfg: FarConfig) -> FarLine | None:
+    """Follow a line's marking through the far view, starting from its near fit.
+
+    Parameters
+    ----------
+    far_binary : (K, width) uint8 ndarray
+        Marking pixels of the far view, 0/1.
+    fv : FarView
+        The far view.
+    fit_px : (3,) ndarray
+        The line's near fit, bird's-eye pixels.
+    xm_per_px : float
+        Metres per bird's-eye pixel across the road.
+    cfg : FarConfig
+        The search window, its growth, the gap allowed and the rows needed.
+
+    Returns
+    -------
+    FarLine or None
+        None when fewer than ``cfg.min_rows`` rows hold the marking.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> from lanefinder.config import FarConfig
+    >>> fv = make_farview(LaneFinder().birdseye((1280, 720)), FarConfig())
+    >>> binary = np.zeros((len(fv.v_px), fv.width), np.uint8)
+    >>> for k, v in enumerate(fv.v_px):  # a marking that drifts right beyond the view
+    ...     col = round(125 - 0.02 * v - fv.u0_px)
+    ...     binary[k, col - 1:col + 2] = 1
+    >>> far = follow_line(binary, fv, np.array([0.0, 0.0, 125.0]), 0.0247, FarConfig())
+    >>> far.n_rows, round(far.range_m), round(float(poly_x(far.fit_px, far.end_px)))
+    (27, 96, 138)
+    """
+    k_rows, width = far_binary.shape
+    d_top = float(fv.d_m[-1] - (fv.d_m[-2] - fv.d_m[-1]))  # the near view's top edge
+    u_fit = poly_x(fit_px, fv.v_px) - fv.u0_px  # in far-view columns
+    s = -fv.v_px  # bird's-eye pixels beyond the top edge
+    found_s, found_r, last_d = [], [], d_top
+    sums = _Sums()
+    searched = 0
+    d_rows, s_rows, u_rows = fv.d_m.tolist(), s.tolist(), u_fit.tolist()
+    for k in range(k_rows - 1, -1, -1):  # nearest row first
+        d = d_rows[k]
+        if d - last_d > cfg.max_gap_m:
+            break
+        predicted = u_rows[k] + sums.correction(s_rows[k])
+        half = (cfg.window_m + cfg.window_growth * (d - d_top)) / xm_per_px
+        lo, hi = math.floor(predicted - half), math.ceil(predicted + half) + 1
+        if lo < 0 or hi > width:
+            break  # the line leaves the view
+        searched += 1
+        cols = np.flatnonzero(far_binary[k, lo:hi])
+        if cols.size:
+            r = lo + float(cols.mean()) - u_rows[k]
+            found_s.append(s_rows[k])
+            found_r.append(r)
+            sums.add(s_rows[k], r)
+            last_d = d
+    if len(found_s) < cfg.min_rows:
+        return None
+    c1, c2 = _fit_correction(np.asarray(found_s), np.asarray(found_r))
+    a, b, c = (float(v) for v in fit_px)
+    far_fit = np.array([a + c2, b - c1, c])  # x(v) + c1*s + c2*s^2 with s = -v (bird's-eye x)
+    end_s = max(found_s)
+    rows_to_end = int(np.sum(s <= end_s))
+    return FarLine(fit_px=far_fit, end_px=-end_s, range_m=float(fv.d_m[k_rows - rows_to_end]),
+                   n_rows=len(found_s), support=len(found_s) / max(1, min(searched, rows_to_end)))
+
+
+class _Sums:
+    """Running sums for the least-squares correction r = c1*s + c2*s^2 while the search goes."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.s2 = self.s3 = self.s4 = self.rs = self.rs2 = 0.0
+
+    def add(self, s: float, r: float) -> None:
+        s2 = s * s
+        self.n += 1
+        self.s2 += s2
+        self.s3 += s2 * s
+        self.s4 += s2 * s2
+        self.rs += r * s
+        self.rs2 += r * s2
+
+    def correction(self, s: float) -> float:
+        """Give the residual expected at ``s`` from the rows found so far (c1 alone below 3 rows)."""
+        if self.n == 0 or self.s2 <= 0:
+            return 0.0
+        det = self.s2 * self.s4 - self.s3 * self.s3
+        if self.n < 3 or det <= 1e-9 * self.s2 * self.s4:
+            return self.rs / self.s2 * s
+        c1 = (self.rs * self.s4 - self.rs2 * self.s3) / det
+        c2 = (self.s2 * self.rs2 - self.s3 * self.rs) / det
+        return c1 * s + c2 * s * s
+
+
+def _fit_correction(s: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs."""
+    a = np.column_stack([s, s * s])
+    keep = np.ones(len(s), bool)
+    coef = np.zeros(2)
+    for _ in range(2):
+        if keep.sum() < 2:
+            break
+        coef, *_ = np.linalg.lstsq(a[keep], r[keep], rcond=None)
+        res = np.abs(a @ coef - r)
+        mad = float(np.median(res[keep])) + 0.5
+        keep = res <= 3 * mad
+    return float(coef[0]), float(coef[1])
+
+
+def row_confidence(confidence: float, d_m: float, d_top_m: float, decay_m: float) -> float:
+    """Give a line's confidence at a distance: as measured up to the view's top, then falling.
+
+    Parameters
+    ----------
+    confidence : float
+        The line's confidence, 0..1.
+    d_m : float
+        Distance ahead of the bird's-eye bottom row, m.
+    d_top_m : float
+        The near view's far end, m.
+    decay_m : float
+        Beyond it, the confidence falls by e every ``decay_m`` metres.
+
+    Returns
+    -------
+    float
+        0..1.
+
+    Examples
+    --------
+    >>> round(row_confidence(0.9, 70.0, 30.0, 40.0), 3)
+    0.331
+    """
+    return float(confidence * math.exp(-max(0.0, d_m - d_top_m) / decay_m))
