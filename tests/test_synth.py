@@ -76,14 +76,14 @@ def test_a_straight_synthetic_frame_gives_both_lines_within_2_px(tmp_path, camer
 # name: (min accuracy, max median offset error m, max p90 offset error m, max catastrophic rate,
 #        min accuracy 40-70 m ahead)
 BARS = {
-    "straight": (0.985, 0.02, 0.03, 0.0, 0.83),
-    "curve": (0.99, 0.02, 0.03, 0.0, 0.97),
-    "shadows": (0.99, 0.02, 0.03, 0.0, 0.89),
-    "pavement": (0.99, 0.025, 0.04, 0.0, 0.93),
+    "straight": (0.995, 0.02, 0.03, 0.0, 0.97),
+    "curve": (0.995, 0.02, 0.03, 0.0, 0.98),
+    "shadows": (0.995, 0.02, 0.03, 0.0, 0.98),
+    "pavement": (0.995, 0.025, 0.04, 0.0, 0.98),
     "glare": (0.92, 0.02, 0.03, 0.0, 0.15),
-    "worn": (0.965, 0.02, 0.03, 0.0, 0.62),
-    "double-yellow": (0.97, 0.02, 0.03, 0.0, 0.63),
-    "sharp-curve": (0.955, 0.025, 0.1, 0.05, 0.49),
+    "worn": (0.97, 0.02, 0.03, 0.0, 0.65),
+    "double-yellow": (0.995, 0.02, 0.03, 0.0, 0.98),
+    "sharp-curve": (0.96, 0.025, 0.1, 0.05, 0.57),
 }
 
 

@@ -554,6 +554,9 @@ class FarConfig(_Section):
         Beyond the view, a line's confidence falls by e every this many metres.
     width_factor : float
         The far view's width as a multiple of the bird's-eye view's, centred on it.
+    strip_m : float
+        Half-width of the strip around each line's extension that is looked at, m: how far
+        the marking may stray from the near fit's extension.
 
     Examples
     --------
@@ -569,6 +572,7 @@ class FarConfig(_Section):
     min_rows: Annotated[int, Field(ge=2, le=100)] = 4
     confidence_decay_m: Annotated[float, Field(gt=0, le=1000)] = 40.0
     width_factor: Annotated[float, Field(ge=1, le=8)] = 6.0
+    strip_m: Annotated[float, Field(gt=0.5, le=20)] = 3.0
 
 
 class RenderConfig(_Section):

@@ -40,8 +40,8 @@ class FarView:
         Bird's-eye y of each row (negative: beyond the top edge), farthest first.
     d_m : (K,) float ndarray
         Distance of each row ahead of the bird's-eye bottom row, m.
-    map1, map2 : ndarray
-        The ``cv2.remap`` tables from the raw frame.
+    map_x, map_y : (K, width) float32 ndarray
+        Where each far-view pixel is in the raw frame (``cv2.remap`` tables).
     width : int
         Columns: ``far.width_factor`` times the bird's-eye view's width, centred on it (lines
         that curve away leave the near view's width far ahead).
@@ -59,8 +59,8 @@ class FarView:
 
     v_px: np.ndarray
     d_m: np.ndarray
-    map1: np.ndarray
-    map2: np.ndarray
+    map_x: np.ndarray
+    map_y: np.ndarray
     width: int
     u0_px: float
 
@@ -77,7 +77,33 @@ class FarView:
         (K, width, 3) uint8 ndarray
             The far view, farthest row first.
         """
-        return cv2.remap(frame, self.map1, self.map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return cv2.remap(frame, self.map_x, self.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+    def strip(self, frame: np.ndarray, centre_px: np.ndarray, half_px: int) -> tuple[np.ndarray, np.ndarray]:
+        """Map a strip of the far view around a line to an image, in one small remap.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            A raw frame of the set-up's size.
+        centre_px : (K,) ndarray
+            The strip's centre in each far row, far-view columns.
+        half_px : int
+            Half its width, columns.
+
+        Returns
+        -------
+        image : (K, 2 * half_px + 1, 3) uint8 ndarray
+            The strip (columns outside the far view repeat its edge).
+        col0 : (K,) int ndarray
+            The far-view column of each row's first pixel.
+        """
+        col0 = np.round(np.asarray(centre_px, np.float64)).astype(np.int64) - half_px
+        cols = np.clip(col0[:, None] + np.arange(2 * half_px + 1), 0, self.width - 1)
+        rows = np.arange(len(col0))[:, None]
+        image = cv2.remap(frame, self.map_x[rows, cols], self.map_y[rows, cols], cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
+        return image, col0
 
 
 def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
@@ -132,8 +158,7 @@ def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
     frame_pts = be.to_frame(np.column_stack([grid_u.ravel(), grid_v.ravel()]))
     map_x = frame_pts[:, 0].reshape(grid_u.shape).astype(np.float32)
     map_y = frame_pts[:, 1].reshape(grid_u.shape).astype(np.float32)
-    map1, map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
-    return FarView(v_rows, (h - v_rows) * be.ym_per_px, map1, map2, width, float(u0))
+    return FarView(v_rows, (h - v_rows) * be.ym_per_px, map_x, map_y, width, float(u0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,7 +193,7 @@ class FarLine:
 
 
 def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_px: float,
-                cfg: FarConfig) -> FarLine | None:
+                cfg: FarConfig, col0: np.ndarray | None = None) -> FarLine | None:
     """Follow a line's marking through the far view, starting from its near fit.
 
     Parameters
@@ -183,6 +208,9 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
         Metres per bird's-eye pixel across the road.
     cfg : FarConfig
         The search window, its growth, the gap allowed and the rows needed.
+    col0 : (K,) int ndarray, optional
+        When ``far_binary`` is a strip (:meth:`FarView.strip`): the far-view column of each
+        row's first pixel; default 0 (the whole far view).
 
     Returns
     -------
@@ -203,6 +231,7 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     (27, 96, 138)
     """
     k_rows, width = far_binary.shape
+    offsets = [0] * k_rows if col0 is None else np.asarray(col0).tolist()
     d_top = float(fv.d_m[-1] - (fv.d_m[-2] - fv.d_m[-1]))  # the near view's top edge
     u_fit = poly_x(fit_px, fv.v_px) - fv.u0_px  # in far-view columns
     s = -fv.v_px  # bird's-eye pixels beyond the top edge
@@ -217,10 +246,10 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
         predicted = u_rows[k] + sums.correction(s_rows[k])
         half = (cfg.window_m + cfg.window_growth * (d - d_top)) / xm_per_px
         lo, hi = math.floor(predicted - half), math.ceil(predicted + half) + 1
-        if lo < 0 or hi > width:
-            break  # the line leaves the view
+        if lo < 0 or hi > fv.width or lo < offsets[k] or hi > offsets[k] + width:
+            break  # the line leaves the view (or its strip)
         searched += 1
-        cols = np.flatnonzero(far_binary[k, lo:hi])
+        cols = np.flatnonzero(far_binary[k, lo - offsets[k]:hi - offsets[k]])
         if cols.size:
             r = lo + float(cols.mean()) - u_rows[k]
             found_s.append(s_rows[k])
@@ -243,11 +272,13 @@ class _Sums:
 
     def __init__(self) -> None:
         self.n = 0
+        self.s_max = 0.0
         self.s2 = self.s3 = self.s4 = self.rs = self.rs2 = 0.0
 
     def add(self, s: float, r: float) -> None:
         s2 = s * s
         self.n += 1
+        self.s_max = max(self.s_max, s)
         self.s2 += s2
         self.s3 += s2 * s
         self.s4 += s2 * s2
@@ -255,11 +286,15 @@ class _Sums:
         self.rs2 += r * s2
 
     def correction(self, s: float) -> float:
-        """Give the residual expected at ``s`` from the rows found so far (c1 alone below 3 rows)."""
+        """Give the residual expected at ``s`` from the rows found so far.
+
+        A parabola extrapolated far beyond the points it was fitted on swings wildly, so the
+        bend c2 is used only once the rows found reach half as far as ``s``; before, c1 alone.
+        """
         if self.n == 0 or self.s2 <= 0:
             return 0.0
         det = self.s2 * self.s4 - self.s3 * self.s3
-        if self.n < 3 or det <= 1e-9 * self.s2 * self.s4:
+        if self.n < 3 or self.s_max < 0.5 * s or det <= 1e-9 * self.s2 * self.s4:
             return self.rs / self.s2 * s
         c1 = (self.rs * self.s4 - self.rs2 * self.s3) / det
         c2 = (self.s2 * self.rs2 - self.s3 * self.rs) / det

@@ -19,7 +19,7 @@ from .camera import CameraModel, load_camera, udacity_camera
 from .config import Config
 from .errors import LaneFinderError
 from .farfield import FarView, follow_line, make_farview
-from .geometry import Scale, lane_geometry
+from .geometry import Scale, lane_geometry, poly_x
 from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measurer, measure
@@ -237,11 +237,17 @@ class LaneFinder:
         fv = self._farview[1]
         if fv is None:
             return result
-        far_binary = threshold(fv.warp(frame), self.config.threshold, be.xm_per_px)
+        cfg = self.config.far
+        half = math.ceil(cfg.strip_m / be.xm_per_px)
         lines = {}
         for side in SIDES:
             line = getattr(result, side)
-            far = follow_line(far_binary, fv, line.fit_px, be.xm_per_px, self.config.far) if line.shown else None
+            if not line.shown:
+                continue
+            # Only a strip around the line's extension is mapped and thresholded.
+            strip, col0 = fv.strip(frame, poly_x(line.fit_px, fv.v_px) - fv.u0_px, half)
+            far_binary = threshold(strip, self.config.threshold, be.xm_per_px)
+            far = follow_line(far_binary, fv, line.fit_px, be.xm_per_px, cfg, col0)
             if far is not None:
                 lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,
                                       range_m=far.range_m if line.found else line.range_m)
