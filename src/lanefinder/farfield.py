@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from .birdseye import BirdsEye
 from .config import FarConfig
@@ -40,8 +41,9 @@ class FarView:
         Bird's-eye y of each row (negative: beyond the top edge), farthest first.
     d_m : (K,) float ndarray
         Distance of each row ahead of the bird's-eye bottom row, m.
-    map_x, map_y : (K, width) float32 ndarray
-        Where each far-view pixel is in the raw frame (``cv2.remap`` tables).
+    map1, map2 : ndarray
+        Where each far-view pixel is in the raw frame: ``cv2.remap``'s fixed-point tables
+        ((K, width, 2) int16 and (K, width) uint16), from which a strip's tables are cut.
     width : int
         Columns: ``far.width_factor`` times the bird's-eye view's width, centred on it (lines
         that curve away leave the near view's width far ahead).
@@ -59,8 +61,8 @@ class FarView:
 
     v_px: np.ndarray
     d_m: np.ndarray
-    map_x: np.ndarray
-    map_y: np.ndarray
+    map1: np.ndarray
+    map2: np.ndarray
     width: int
     u0_px: float
 
@@ -77,7 +79,7 @@ class FarView:
         (K, width, 3) uint8 ndarray
             The far view, farthest row first.
         """
-        return cv2.remap(frame, self.map_x, self.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return cv2.remap(frame, self.map1, self.map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
     def strip(self, frame: np.ndarray, centre_px: np.ndarray, half_px: int) -> tuple[np.ndarray, np.ndarray]:
         """Map a strip of the far view around a line to an image, in one small remap.
@@ -94,15 +96,17 @@ class FarView:
         Returns
         -------
         image : (K, 2 * half_px + 1, 3) uint8 ndarray
-            The strip (columns outside the far view repeat its edge).
+            The strip (shifted inwards where it would leave the far view).
         col0 : (K,) int ndarray
             The far-view column of each row's first pixel.
         """
-        col0 = np.round(np.asarray(centre_px, np.float64)).astype(np.int64) - half_px
-        cols = np.clip(col0[:, None] + np.arange(2 * half_px + 1), 0, self.width - 1)
-        rows = np.arange(len(col0))[:, None]
-        image = cv2.remap(frame, self.map_x[rows, cols], self.map_y[rows, cols], cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REPLICATE)
+        n = min(2 * half_px + 1, self.width)
+        col0 = np.clip(np.round(np.asarray(centre_px, np.float64)).astype(np.int64) - half_px, 0, self.width - n)
+        rows = np.arange(len(col0))
+        # Each row's strip is a slice of the tables: cut them through windows, not pixel by pixel.
+        map1 = sliding_window_view(self.map1, n, axis=1)[rows, col0].transpose(0, 2, 1)
+        map2 = sliding_window_view(self.map2, n, axis=1)[rows, col0]
+        image = cv2.remap(frame, np.ascontiguousarray(map1), map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return image, col0
 
 
@@ -158,7 +162,8 @@ def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
     frame_pts = be.to_frame(np.column_stack([grid_u.ravel(), grid_v.ravel()]))
     map_x = frame_pts[:, 0].reshape(grid_u.shape).astype(np.float32)
     map_y = frame_pts[:, 1].reshape(grid_u.shape).astype(np.float32)
-    return FarView(v_rows, (h - v_rows) * be.ym_per_px, map_x, map_y, width, float(u0))
+    map1, map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+    return FarView(v_rows, (h - v_rows) * be.ym_per_px, map1, map2, width, float(u0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,6 +237,13 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     """
     k_rows, width = far_binary.shape
     offsets = [0] * k_rows if col0 is None else np.asarray(col0).tolist()
+    # Running sums along each row: a window's pixel count and mean column in O(1).
+    b = far_binary.astype(np.int32)
+    count = np.zeros((k_rows, width + 1), np.int64)
+    np.cumsum(b, axis=1, out=count[:, 1:])
+    colsum = np.zeros((k_rows, width + 1), np.int64)
+    np.cumsum(b * np.arange(width), axis=1, out=colsum[:, 1:])
+
     d_top = float(fv.d_m[-1] - (fv.d_m[-2] - fv.d_m[-1]))  # the near view's top edge
     u_fit = poly_x(fit_px, fv.v_px) - fv.u0_px  # in far-view columns
     s = -fv.v_px  # bird's-eye pixels beyond the top edge
@@ -249,9 +261,10 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
         if lo < 0 or hi > fv.width or lo < offsets[k] or hi > offsets[k] + width:
             break  # the line leaves the view (or its strip)
         searched += 1
-        cols = np.flatnonzero(far_binary[k, lo - offsets[k]:hi - offsets[k]])
-        if cols.size:
-            r = lo + float(cols.mean()) - u_rows[k]
+        a_, b_ = lo - offsets[k], hi - offsets[k]
+        n = int(count[k, b_] - count[k, a_])
+        if n:
+            r = offsets[k] + float(colsum[k, b_] - colsum[k, a_]) / n - u_rows[k]
             found_s.append(s_rows[k])
             found_r.append(r)
             sums.add(s_rows[k], r)
@@ -303,17 +316,23 @@ class _Sums:
 
 def _fit_correction(s: np.ndarray, r: np.ndarray) -> tuple[float, float]:
     """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs."""
-    a = np.column_stack([s, s * s])
     keep = np.ones(len(s), bool)
-    coef = np.zeros(2)
+    c1 = c2 = 0.0
     for _ in range(2):
         if keep.sum() < 2:
             break
-        coef, *_ = np.linalg.lstsq(a[keep], r[keep], rcond=None)
-        res = np.abs(a @ coef - r)
-        mad = float(np.median(res[keep])) + 0.5
-        keep = res <= 3 * mad
-    return float(coef[0]), float(coef[1])
+        ss, rr = s[keep], r[keep]
+        s2 = ss * ss
+        a11, a12, a22 = float(s2.sum()), float((s2 * ss).sum()), float((s2 * s2).sum())
+        b1, b2 = float((rr * ss).sum()), float((rr * s2).sum())
+        det = a11 * a22 - a12 * a12
+        if det > 1e-9 * a11 * a22:
+            c1, c2 = (b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det
+        else:
+            c1, c2 = b1 / a11, 0.0
+        res = np.abs(c1 * s + c2 * s * s - r)
+        keep = res <= 3 * (float(np.median(res[keep])) + 0.5)
+    return c1, c2
 
 
 def row_confidence(confidence: float, d_m: float, d_top_m: float, decay_m: float) -> float:
