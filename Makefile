@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test test-fast lint bench eval eval-tune check-videos clean
+.PHONY: install demo test test-fast lint bench eval eval-tune stills check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,10 @@ eval: $(STAMP)
 
 eval-tune: $(STAMP)
 	$(BIN)/python scripts/eval_synthetic.py --frames 100 --seeds 0 --out output/eval-tune
+
+# Blind stills (one a second) against the tracked videos: the single-image path.
+stills: $(STAMP)
+	$(BIN)/python scripts/stills_vs_video.py
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py

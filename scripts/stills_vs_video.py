@@ -1,0 +1,94 @@
+"""Single stills against the tracked video: does `lanefinder image` (blind, no history) agree? (`make stills`)
+
+    python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--json output/stills/report.json]
+
+For each of the three Udacity videos: the video is run once with tracking (telemetry only);
+then one frame a second (at 0.5 s, 1.5 s, ...) is found again as a still, blind, with no
+history, exactly as `lanefinder image` does. The tracked video's two lines are the reference
+(frames where the video shows no lane are left out and counted). A still *agrees* when each
+of the video's lines is matched by one of the still's lines by TuSimple's rule (20 px / cos(angle)
+per row, 85% of the rows), over the TuSimple rows where the video has the line. The table gives
+per video: stills compared, stills with a lane, stills that agree, and the mean TuSimple accuracy.
+
+The videos are what the project was tuned on; the stills are the same footage seen without
+history, so this measures the blind path, not generalisation to new roads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+from lanefinder.config import Config
+from lanefinder.evaluate import bench_frame
+from lanefinder.pipeline import LaneFinder
+from lanefinder.telemetry import lane_row, read_telemetry
+from lanefinder.video import VideoInfo, frames
+from lanefinder.videojob import process_video
+
+ROOT = Path(__file__).resolve().parents[1]
+VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
+TARGETS = {"project_video": 0.95, "challenge_video": 0.95, "harder_challenge_video": 0.80}
+
+
+def compare(src: Path, every_s: float, cfg: Config) -> dict:
+    """Agreement of blind stills with the tracked video for one video."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tele = Path(tmp) / "t.jsonl"
+        process_video(src, None, cfg, telemetry=tele, progress=False)
+        tracked = {r["frame"]: r for r in read_telemetry(tele)}
+    fps = float(VideoInfo.from_path(src).fps)
+    step = max(1, round(every_s * fps))
+    finder = LaneFinder(cfg)
+    n = with_lane = agree = no_reference = 0
+    acc_sum = 0.0
+    for f in frames(src):
+        if f.index % step != step // 2:
+            continue
+        ref = tracked.get(f.index)
+        ref_lanes = [ref[k] for k in ("left_x", "right_x") if ref and any(v >= 0 for v in ref[k])]
+        if ref is None or ref["state"] == "lost" or len(ref_lanes) < 2:
+            no_reference += 1
+            continue
+        finder.reset()
+        result = finder.process(f.image)
+        row = lane_row(result, finder.birdseye((f.image.shape[1], f.image.shape[0])))
+        lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
+        acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])
+        n += 1
+        with_lane += result.lane_found
+        agree += result.lane_found and fn == 0
+        acc_sum += acc
+    return {"stills": n, "with_lane": with_lane, "agree": agree, "agree_share": agree / n if n else None,
+            "mean_accuracy": acc_sum / n if n else None, "no_reference": no_reference}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--videos", type=Path, default=ROOT.parent / "shared" / "data" / "udacity" / "videos")
+    ap.add_argument("--every-s", type=float, default=1.0)
+    ap.add_argument("--json", type=Path, default=ROOT / "output" / "stills" / "report.json")
+    a = ap.parse_args()
+    cfg = Config()
+    report = {}
+    print(f"{'video':<24} {'stills':>6} {'lane':>6} {'agree':>6} {'agree %':>8} {'target':>7} {'mean acc':>9}")
+    for name in VIDEOS:
+        src = a.videos / f"{name}.mp4"
+        if not src.is_file():
+            print(f"{name:<24} skipped: {src} not found")
+            continue
+        r = compare(src, a.every_s, cfg)
+        report[name] = r
+        print(f"{name:<24} {r['stills']:>6} {r['with_lane']:>6} {r['agree']:>6} {100 * (r['agree_share'] or 0):>7.1f}% "
+              f"{100 * TARGETS[name]:>6.0f}% {r['mean_accuracy'] or 0:>9.4f}", flush=True)
+    a.json.parent.mkdir(parents=True, exist_ok=True)
+    a.json.write_text(json.dumps(report, indent=2) + "\n")
+    print(f"\none still every {a.every_s:g} s; frames where the video shows no lane are left out; report: {a.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
