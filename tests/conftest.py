@@ -31,3 +31,16 @@ def shared_video(name: str) -> Path:
     if not path.is_file():
         pytest.skip(f"full Udacity video not available: {path} (needs ../shared/data beside the checkout)")
     return path
+
+
+def faststart_copy(src: Path, dst: Path) -> None:
+    """Remux an MP4 with its index (moov) in front, as streaming-friendly files have it."""
+    import av
+
+    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
+        s_in = i.streams.video[0]
+        s_out = o.add_stream_from_template(s_in)
+        for pkt in i.demux(s_in):
+            if pkt.dts is not None:
+                pkt.stream = s_out
+                o.mux(pkt)

@@ -39,7 +39,7 @@ from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
 from lanefinder.telemetry import read_telemetry
 from lanefinder.video import VideoInfo
 
-from conftest import CAL, CLIPS, TEST_IMAGES
+from conftest import CAL, CLIPS, TEST_IMAGES, faststart_copy
 
 CLIP = CLIPS / "project_37-47s.mp4"
 CAMERA = Path(__file__).resolve().parents[1] / "src" / "lanefinder" / "data" / "udacity_camera.json"
@@ -305,16 +305,6 @@ def _encode(path: Path, size: tuple[int, int], n: int, codec: str, fmt: str | No
             c.mux(pkt)
 
 
-def _faststart(src: Path, dst: Path) -> None:
-    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
-        s_in = i.streams.video[0]
-        s_out = o.add_stream_from_template(s_in)
-        for pkt in i.demux(s_in):
-            if pkt.dts is not None:
-                pkt.stream = s_out
-                o.mux(pkt)
-
-
 def _media(kind: str, folder: Path) -> Path:
     data = CLIP.read_bytes()
     if kind.startswith("cut-end-"):  # the clip keeps its index at the end
@@ -323,7 +313,7 @@ def _media(kind: str, folder: Path) -> Path:
     elif kind.startswith("cut-front-"):
         whole = folder / "whole.mp4"
         if not whole.exists():
-            _faststart(CLIP, whole)
+            faststart_copy(CLIP, whole)
         p = folder / f"{kind}.mp4"
         b = whole.read_bytes()
         p.write_bytes(b[: int(len(b) * int(kind.rsplit("-", 1)[1]) / 100)])

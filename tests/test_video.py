@@ -16,7 +16,7 @@ from lanefinder.telemetry import FIELDS, read_telemetry
 from lanefinder.video import VideoInfo, frames
 from lanefinder.videojob import process_video
 
-from conftest import CLIPS
+from conftest import CLIPS, faststart_copy
 
 # Every test here decodes and encodes video, most in a subprocess.
 pytestmark = pytest.mark.slow
@@ -109,21 +109,10 @@ def test_corrupt_video_is_a_clear_error(tmp_path):
     assert not (tmp_path / "o.mp4").exists()
 
 
-def _faststart_copy(src, dst) -> None:
-    """Remux with the index (moov) in front, as streaming-friendly files have it."""
-    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
-        s_in = i.streams.video[0]
-        s_out = o.add_stream_from_template(s_in)
-        for pkt in i.demux(s_in):
-            if pkt.dts is not None:
-                pkt.stream = s_out
-                o.mux(pkt)
-
-
 @pytest.mark.slow
 def test_truncated_video_with_its_index_in_front_gives_the_frames_that_could_be_read(tmp_path):
     whole, cut = tmp_path / "whole.mp4", tmp_path / "cut.mp4"
-    _faststart_copy(CHALLENGE, whole)
+    faststart_copy(CHALLENGE, whole)
     data = whole.read_bytes()
     cut.write_bytes(data[: int(len(data) * 0.6)])
     p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
