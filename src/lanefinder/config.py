@@ -19,6 +19,7 @@ __all__ = [
     "LANE_SPAN_PX",
     "LANE_WIDTH_M",
     "VIEW_SIZE_PX",
+    "BatchConfig",
     "BirdseyeConfig",
     "CameraConfig",
     "ColorConfig",
@@ -644,6 +645,28 @@ class LimitsConfig(_Section):
     memory_mb: Annotated[int, Field(ge=64, le=1_048_576)] = 2048
 
 
+class BatchConfig(_Section):
+    """How ``lanefinder batch`` cuts long videos into segments for the cluster.
+
+    Attributes
+    ----------
+    segment_s : float
+        Length of a segment, s: a video longer than this is processed as several segments in
+        parallel (0: never split).
+    warmup_s : float
+        Each segment after the first starts this much earlier, to warm the tracker up; the
+        overlap is dropped when the segments are stitched, s.
+
+    Examples
+    --------
+    >>> BatchConfig().segment_s, BatchConfig().warmup_s
+    (120.0, 4.0)
+    """
+
+    segment_s: Annotated[float, Field(ge=0, le=86_400)] = 120.0
+    warmup_s: Annotated[float, Field(ge=0, le=600)] = 4.0
+
+
 class Config(_Section):
     """All tunables of lanefinder, one validated section per stage.
 
@@ -661,6 +684,7 @@ class Config(_Section):
     render : RenderConfig
     video : VideoConfig
     limits : LimitsConfig
+    batch : BatchConfig
 
     Examples
     --------
@@ -679,6 +703,7 @@ class Config(_Section):
     render: RenderConfig = RenderConfig()
     video: VideoConfig = VideoConfig()
     limits: LimitsConfig = LimitsConfig()
+    batch: BatchConfig = BatchConfig()
 
 
 def _format_error(e: ValidationError, source: str) -> str:

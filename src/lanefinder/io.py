@@ -26,6 +26,7 @@ __all__ = [
     "list_images",
     "publish",
     "read_image",
+    "signals_held",
     "write_image",
 ]
 
@@ -151,16 +152,46 @@ def publish(tmp: str | Path, dest: str | Path) -> None:
 
 
 @contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold Ctrl-C and SIGTERM back while files are put in place or removed (main thread only)."""
-    held = {signal.SIGINT, signal.SIGTERM}
-    main = threading.current_thread() is threading.main_thread()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if main else None
+def signals_held() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM back for the duration of the block (main thread only).
+
+    Used where a signal must not split a step in two: files put in place or removed together,
+    or a video frame and its telemetry row written together.  A signal that arrives meanwhile,
+    in any thread, is recorded and acted on (as the handler before the block would have) when
+    the block ends.  In other threads it does nothing.
+
+    Yields
+    ------
+    None
+
+    Examples
+    --------
+    >>> with signals_held():
+    ...     pass
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    old = {sig: signal.signal(sig, lambda signum, _frame: caught.append(signum)) for sig in _HELD}
     try:
         yield
     finally:
-        if old is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        for signum in dict.fromkeys(caught):
+            _replay(signum, old[signum])
+
+
+_HELD = (signal.SIGINT, signal.SIGTERM)
+
+
+def _replay(signum: int, handler) -> None:
+    """Act on a signal that was held, as ``handler`` (the one in force before) would have."""
+    if callable(handler):
+        handler(signum, None)
+    elif handler == signal.SIG_DFL:
+        os.kill(os.getpid(), signum)
 
 
 def _make_folder(folder: Path) -> list[Path]:
@@ -285,7 +316,7 @@ class OutputSet:
 
     def commit(self) -> None:
         """Move every finished output into place, with ordinary permissions."""
-        with _signals_held():
+        with signals_held():
             try:
                 for tmp, dest in self._pending:
                     publish(tmp, dest)
@@ -296,7 +327,7 @@ class OutputSet:
 
     def discard(self) -> None:
         """Remove the temporary files that are left, and the folders made for them if empty."""
-        with _signals_held():
+        with signals_held():
             for tmp, _ in self._pending:
                 tmp.unlink(missing_ok=True)
             self._pending = []

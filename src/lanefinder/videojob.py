@@ -23,7 +23,7 @@ import numpy as np
 from .birdseye import BirdsEye
 from .config import Config
 from .errors import LaneFinderError
-from .io import OutputSet, encode_image
+from .io import OutputSet, encode_image, signals_held
 from .lane import LOST, REDETECT, LaneResult
 from .limits import check_memory
 from .pipeline import LaneFinder
@@ -290,13 +290,9 @@ class _Run:
         self.thumbs: list[tuple[float, np.ndarray]] = []
         self.counts = RunCounts()
 
-    def frame(self, f: Frame, writer: TelemetryWriter | None, draw: bool) -> np.ndarray | None:
-        """Find, record and count one frame; returns the annotated image when ``draw`` asks for it."""
+    def frame(self, f: Frame, draw: bool) -> tuple[LaneResult, np.ndarray | None]:
+        """Find one frame's lane; returns the result and, when ``draw`` asks for it, the annotated image."""
         result = self.finder.process(f.image)
-        if writer:
-            writer.write(make_row(f.index, f.time_s, result, self.be, self.finder.config.far.confidence_decay_m))
-        if self.on_result:
-            self.on_result(f.index, result)
         out = None
         on_sheet = self.counts.frames in self.sheet_at
         if draw or on_sheet:
@@ -305,8 +301,21 @@ class _Run:
                 draw_debug(out, result)
             if on_sheet:
                 self.thumbs.append((f.time_s, _thumb(out)))
-        self.counts.add(result)
-        return out if draw else None
+        return result, (out if draw else None)
+
+    def emit(self, f: Frame, result: LaneResult, out: np.ndarray | None, writer: TelemetryWriter | None,
+             threads: _Threads) -> None:
+        """Write one frame's telemetry row and queue its image, as one step that no signal splits."""
+        row = make_row(f.index, f.time_s, result, self.be, self.finder.config.far.confidence_decay_m) \
+            if writer else None
+        with signals_held():
+            if row is not None and writer is not None:
+                writer.write(row)
+            if out is not None:
+                threads.out_q.put(out)
+            self.counts.add(result)
+        if self.on_result:
+            self.on_result(f.index, result)
 
     def loop(self, threads: _Threads, writer: TelemetryWriter | None, encoding: bool, progress: bool,
              name: str) -> bool:
@@ -320,9 +329,8 @@ class _Run:
             for f in threads.frames():
                 if interrupt.is_set():
                     break
-                out = self.frame(f, writer, draw=encoding)
-                if encoding:
-                    threads.out_q.put(out)
+                result, out = self.frame(f, draw=encoding)
+                self.emit(f, result, out, writer, threads)
                 bar.update(1)
         except KeyboardInterrupt:
             interrupt.set()
