@@ -96,7 +96,7 @@ def test_things_that_are_not_frames_are_refused(thing):
 
 
 @FUZZ
-@given(st.binary(max_size=400) | st.text(max_size=400).map(str.encode), st.sampled_from([".csv", ".jsonl"]))
+@given(st.binary(max_size=400) | st.text(max_size=400).map(str.encode), st.sampled_from([".csv", ".jsonl", ".parquet"]))
 def test_any_telemetry_file_is_read_or_refused(tmp_path, data, suffix):
     path = tmp_path / f"t{suffix}"
     path.write_bytes(data)
@@ -187,7 +187,8 @@ CASES = [
      "refusing to overwrite the input"),
     ("video --contact-sheet .mp4", "video {w}/clip.mp4 --telemetry {w}/x.csv --contact-sheet {w}/s.mp4",
      "cannot write an image as .mp4"),
-    ("video --telemetry .txt", "video {w}/clip.mp4 -o {w}/o.mp4 --telemetry {w}/t.txt", "must end in .csv or .jsonl"),
+    ("video --telemetry .txt", "video {w}/clip.mp4 -o {w}/o.mp4 --telemetry {w}/t.txt",
+     "must end in .csv, .jsonl or .parquet"),
     ("video -o /proc", "video {w}/clip.mp4 -o /proc/lanefinder_test.mp4 --end 0.2 --quiet", "/proc"),
     ("video --start nan", "video {w}/clip.mp4 -o {w}/o.mp4 --start nan", "not a finite number"),
     ("video --end -1", "video {w}/clip.mp4 -o {w}/o.mp4 --end -1", "not in the range"),

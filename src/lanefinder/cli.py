@@ -246,7 +246,7 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
 @click.option("--start", "start_s", type=_Finite(0, 1e7), default=0.0, show_default=True, help="Start, seconds.")
 @click.option("--end", "end_s", type=_Finite(0, 1e7), default=None, help="End, seconds (default: the end).")
-@click.option("--telemetry", type=click.Path(), help="Per-frame numbers, .csv or .jsonl.")
+@click.option("--telemetry", type=click.Path(), help="Per-frame numbers: .csv, .jsonl or .parquet (typed columns).")
 @click.option("--debug", is_flag=True, help="Picture-in-picture of the bird's-eye search in every frame.")
 @click.option("--contact-sheet", "sheet", type=click.Path(), help="Write a PNG grid of frames spread over the run.")
 @click.option("--preset", type=click.Choice(["ultrafast", "superfast", "veryfast", "faster", "fast", "medium"]),
@@ -410,6 +410,37 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
         atomic_write_text(output, dump_config(result.config(), fmt), outputs=together)  # type: ignore[arg-type]
         write_image(prev, preview(images[0], result, camera), outputs=together)
     click.echo(f"wrote {output} and {prev}; use it with: lanefinder video IN.mp4 -o OUT.mp4 -c {output}")
+
+
+# -- batch -------------------------------------------------------------------------------
+@main.command()
+@click.argument("inputs", nargs=-1, required=True)
+@click.option("-o", "--outdir", required=True, help="Output folder (a path or an fsspec URL); a re-run resumes.")
+@click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
+@click.option("--workers", type=click.IntRange(1, 512), default=None,
+              help="Local Dask workers (default: one per core).")
+@click.option("--scheduler", default=None, help="Use a running Dask scheduler, e.g. tcp://127.0.0.1:8786.")
+@click.option("--video", "write_video", is_flag=True, help="Also write annotated videos (OUTDIR/videos/).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def batch(inputs: tuple[str, ...], outdir: str, config_path: str | None, workers: int | None,
+          scheduler: str | None, write_video: bool, quiet: bool) -> None:
+    """Process a fleet of videos on Dask: INPUTS are videos, folders or text files of paths (or URLs).
+
+    Writes a Parquet dataset partitioned by video (OUTDIR/telemetry/), events.parquet,
+    summary.parquet and summary.csv; exit status 2 when any video failed.
+    """
+    from .batch import run_batch
+
+    if workers is not None and scheduler:
+        raise LaneFinderError("give --workers for a local cluster or --scheduler for a running one, not both")
+    report = run_batch(list(inputs), outdir, _config(config_path), workers=workers, scheduler=scheduler,
+                       write_video=write_video, progress=not quiet, echo=click.echo)
+    for line in report.lines():
+        click.echo(line)
+    if report.failed:
+        _fail(f"{report.failed} of {report.videos} videos failed: their reasons are in "
+              f"{outdir.rstrip('/')}/summary.csv")
+        sys.exit(2)
 
 
 def _setup_inputs(paths: list[Path], camera_path: str | None) -> list[Path]:

@@ -39,6 +39,7 @@ __all__ = [
     "FIELDS",
     "LINE_FIELDS",
     "LIST_FIELDS",
+    "TELEMETRY_SUFFIXES",
     "TelemetryWriter",
     "h_samples",
     "lane_row",
@@ -60,6 +61,8 @@ FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *
 LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x"), *_paired("x_conf")}
 _DEFAULT_DECAY_M = FarConfig().confidence_decay_m
 BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
+#: The telemetry formats, by file suffix.
+TELEMETRY_SUFFIXES = (".csv", ".jsonl", ".parquet")
 
 
 def h_samples(frame_height: int) -> list[int]:
@@ -267,7 +270,8 @@ class TelemetryWriter:
     Parameters
     ----------
     path : str or Path
-        The telemetry file: ``.csv`` or ``.jsonl``.
+        The telemetry file: ``.csv``, ``.jsonl`` or ``.parquet`` (typed columns, see
+        :mod:`lanefinder.tables`).
     outputs : OutputSet, optional
         Write the file as part of this set: :meth:`close` then finishes it and the set puts
         it in place together with the command's other outputs.
@@ -297,13 +301,20 @@ class TelemetryWriter:
     def __init__(self, path: str | Path, outputs: OutputSet | None = None):
         self.path = Path(path)
         suffix = self.path.suffix.lower()
-        if suffix not in (".csv", ".jsonl"):
-            raise LaneFinderError(f"telemetry file must end in .csv or .jsonl: {self.path}")
+        if suffix not in TELEMETRY_SUFFIXES:
+            raise LaneFinderError(f"telemetry file must end in .csv, .jsonl or .parquet: {self.path}")
         self.csv = suffix == ".csv"
         self._own = outputs is None
         self._outputs = outputs if outputs is not None else OutputSet()
         self.tmp = self._outputs.add(self.path)
-        self._f = self.tmp.open("w", newline="")
+        self._pq = None
+        if suffix == ".parquet":
+            from .tables import ParquetRowWriter  # pyarrow is loaded only when asked for
+
+            self._f = io.StringIO()
+            self._guard(lambda: setattr(self, "_pq", ParquetRowWriter(self.tmp)))
+        else:
+            self._f = self.tmp.open("w", newline="")
         self._csv = csv.DictWriter(self._f, fieldnames=FIELDS) if self.csv else None
         self.rows = 0
         self._guard(lambda: self._csv.writeheader() if self._csv else None)
@@ -325,6 +336,9 @@ class TelemetryWriter:
             Fields of :data:`FIELDS` (lists as lists, missing numbers as None).
         """
         def put() -> None:
+            if self._pq is not None:
+                self._pq.write(row)
+                return
             if self._csv:
                 self._csv.writerow({k: (json.dumps(v) if k in LIST_FIELDS and v is not None else
                                         ("" if v is None else v)) for k, v in row.items()})
@@ -345,6 +359,8 @@ class TelemetryWriter:
         """
         if self._f.closed:
             return
+        if self._pq is not None:
+            self._guard(self._pq.close)
         self._guard(self._f.close)
         if self._own:
             self._outputs.commit()
@@ -352,6 +368,8 @@ class TelemetryWriter:
     def discard(self) -> None:
         """Drop the hidden file; whatever was at ``path`` stays as it was."""
         if not self._f.closed:
+            if self._pq is not None:
+                self._pq.abort()
             with contextlib.suppress(OSError):
                 self._f.close()
         if self._own:
@@ -390,7 +408,7 @@ def _parse_csv_value(key: str, v: str):
 
 
 def read_telemetry(path: str | Path) -> list[dict]:
-    """Read the rows of a telemetry file (CSV or JSONL), with lists and numbers parsed.
+    """Read the rows of a telemetry file (CSV, JSONL or Parquet), with lists and numbers parsed.
 
     Parameters
     ----------
@@ -418,6 +436,24 @@ def read_telemetry(path: str | Path) -> list[dict]:
     p = Path(path)
     if not p.is_file():
         raise LaneFinderError(f"telemetry file not found: {p}")
+    rows = _read_parquet(p) if p.suffix.lower() == ".parquet" else _read_text_rows(p)
+    for i, row in enumerate(rows, 1):
+        if not isinstance(row, dict) or None in row:
+            raise LaneFinderError(f"{p}: row {i} is not a record of named fields (or has more values than the header)")
+        for k in _NUMBER_FIELDS:
+            v = row.get(k)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise LaneFinderError(f"{p}: row {i}: {k} is not a number ({v!r})")
+    return rows
+
+
+def _read_parquet(p: Path) -> list:
+    from .tables import read_parquet_rows  # pyarrow is loaded only when asked for
+
+    return read_parquet_rows(p)
+
+
+def _read_text_rows(p: Path) -> list:
     try:
         text = p.read_text()
     except (UnicodeDecodeError, OSError) as e:
@@ -430,11 +466,4 @@ def read_telemetry(path: str | Path) -> list[dict]:
             rows = [json.loads(line) for line in text.splitlines() if line.strip()]
     except (ValueError, json.JSONDecodeError) as e:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
-    for i, row in enumerate(rows, 1):
-        if not isinstance(row, dict) or None in row:
-            raise LaneFinderError(f"{p}: row {i} is not a record of named fields (or has more values than the header)")
-        for k in _NUMBER_FIELDS:
-            v = row.get(k)
-            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
-                raise LaneFinderError(f"{p}: row {i}: {k} is not a number ({v!r})")
     return rows

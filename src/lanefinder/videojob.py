@@ -28,7 +28,7 @@ from .lane import LOST, REDETECT, LaneResult
 from .limits import check_memory
 from .pipeline import LaneFinder
 from .render import annotate, contact_sheet, draw_debug
-from .telemetry import TelemetryWriter, make_row
+from .telemetry import TELEMETRY_SUFFIXES, TelemetryWriter, make_row
 from .video import DecodeStats, Frame, VideoInfo, VideoSink, frames
 
 __all__ = ["RunCounts", "VideoSummary", "process_video"]
@@ -200,8 +200,8 @@ def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Pat
         raise LaneFinderError("nothing to write: give an output video, telemetry, or both")
     if dst is not None and dst.suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output video must be an .mp4 file: {dst}")
-    if telemetry is not None and Path(telemetry).suffix.lower() not in (".csv", ".jsonl"):
-        raise LaneFinderError(f"telemetry file must end in .csv or .jsonl: {telemetry}")
+    if telemetry is not None and Path(telemetry).suffix.lower() not in TELEMETRY_SUFFIXES:
+        raise LaneFinderError(f"telemetry file must end in .csv, .jsonl or .parquet: {telemetry}")
     if sheet is not None:
         encode_image(sheet, np.zeros((2, 2, 3), np.uint8))  # refuses a suffix that is not an image format
     if not (start_s >= 0 and (end_s is None or end_s > start_s)) or math.isinf(start_s):  # also refuses NaN

@@ -1,0 +1,838 @@
+"""The batch job: a fleet of videos on a Dask cluster, written as one queryable Parquet dataset.
+
+``run_batch`` finds the inputs (files, folders searched recursively for videos, text files
+that list paths; local paths or fsspec URLs), probes each one on the cluster, cuts the long
+ones into segments (each after the first starting ``batch.warmup_s`` early so the tracker
+is warm when its own span begins; the overlap is dropped), and runs the segments as Dask
+tasks.  Each task writes its rows straight into ``OUTDIR/telemetry/video=<id>/`` (one Parquet
+file per segment, put in place only when complete) and sends back a few numbers per frame,
+from which the client finds the lane events of the whole video and its summary.
+
+A manifest (``OUTDIR/manifest.json``, rewritten atomically after every video) keys each
+input by its content hash and the config's hash: a re-run skips what is done, redoes what
+failed or changed, and says how many of each.  One video's failure is recorded with its
+reason and never stops the others.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+import posixpath
+import re
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import fsspec
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from . import __version__
+from .config import Config, dump_config
+from .errors import LaneFinderError
+from .tables import telemetry_schema
+
+__all__ = [
+    "VIDEO_SUFFIXES",
+    "BatchReport",
+    "Segment",
+    "VideoEntry",
+    "batch_schema",
+    "config_hash",
+    "content_hash",
+    "find_inputs",
+    "plan_segments",
+    "run_batch",
+    "run_segment",
+]
+
+#: File suffixes taken for videos when a folder is searched.
+VIDEO_SUFFIXES = (".mp4", ".mov", ".m4v", ".mkv", ".avi", ".webm", ".ts", ".mts", ".mpg", ".mpeg", ".h264")
+#: Suffixes of a text file that lists inputs, one a line.
+LIST_SUFFIXES = (".txt", ".lst", ".list")
+_MANIFEST = "manifest.json"
+# Bytes read for the content hash: the head, the tail and evenly spaced blocks between.
+_HASH_BLOCK = 1 << 20
+_HASH_BLOCKS = 16
+# Columns a task sends back per frame (enough for events and the summary).
+_EVENT_COLUMNS = ("frame", "time_s", "state", "offset_m", "width_m")
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A span of one video, processed as one task.
+
+    Attributes
+    ----------
+    video_id : str
+        The video's name in the dataset (its partition value).
+    url : str
+        The input (a local path or an fsspec URL).
+    index : int
+        The segment's number in its video, from 0.
+    start_s : float
+        Where the segment's own span begins, s.
+    end_s : float or None
+        Where it ends (exclusive), s; None: the end of the video.
+    warmup_s : float
+        Processed before ``start_s`` to warm the tracker up, and dropped, s.
+    fps : float
+        The video's frame rate, frames/s.
+
+    Examples
+    --------
+    >>> s = Segment(video_id="a", url="a.mp4", index=1, start_s=120.0, end_s=240.0, warmup_s=4.0, fps=25.0)
+    >>> s.run_from_s
+    116.0
+    """
+
+    video_id: str
+    url: str
+    index: int
+    start_s: float
+    end_s: float | None
+    warmup_s: float
+    fps: float
+
+    @property
+    def run_from_s(self) -> float:
+        """Where decoding starts: the span's start less the warm-up, s."""
+        return max(0.0, self.start_s - self.warmup_s)
+
+
+@dataclass
+class VideoEntry:
+    """One input's record in the manifest.
+
+    Attributes
+    ----------
+    url : str
+        The input.
+    video_id : str
+        Its name in the dataset.
+    content_hash, config_hash : str
+        What the record was made from.
+    status : str
+        ``done`` or ``failed``.
+    error : str or None
+        Why it failed.
+    summary : dict
+        The video's row of ``summary.parquet`` (without ``video``, ``input``, ``status``, ``error``).
+    events : list of dict
+        Its lane events (rows of ``events.parquet`` without ``video``).
+
+    Examples
+    --------
+    >>> VideoEntry(url="a.mp4", video_id="a", content_hash="x", config_hash="y", status="failed",
+    ...            error="cannot open").status
+    'failed'
+    """
+
+    url: str
+    video_id: str
+    content_hash: str
+    config_hash: str
+    status: str
+    error: str | None = None
+    summary: dict = field(default_factory=dict)
+    events: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class BatchReport:
+    """What a batch run did.
+
+    Attributes
+    ----------
+    videos : int
+        Inputs in all.
+    done : int
+        Processed (or redone) this run and succeeded.
+    skipped : int
+        Done before with the same content and config: not run again.
+    redone_failed, redone_changed : int
+        Of ``done`` and ``failed``: inputs that had failed before, or whose content or config changed.
+    failed : int
+        Failed this run (recorded with their reason).
+    frames : int
+        Frames processed this run.
+    seconds : float
+        Wall time, s.
+    outdir : str
+        The output folder.
+    dashboard : str or None
+        The Dask dashboard's address, when there is one.
+
+    Examples
+    --------
+    >>> r = BatchReport(videos=3, done=2, skipped=1, redone_failed=0, redone_changed=0, failed=0, frames=50,
+    ...                 seconds=2.0, outdir="out", dashboard=None)
+    >>> r.lines()[0]
+    '3 videos: 2 processed, 1 skipped (done before, unchanged), 0 failed'
+    """
+
+    videos: int
+    done: int
+    skipped: int
+    redone_failed: int
+    redone_changed: int
+    failed: int
+    frames: int
+    seconds: float
+    outdir: str
+    dashboard: str | None = None
+
+    def lines(self) -> list[str]:
+        """Return the end-of-run summary as printed lines.
+
+        Returns
+        -------
+        list of str
+            Counts, speed and where the outputs are.
+        """
+        fps = self.frames / self.seconds if self.seconds else 0.0
+        return [
+            f"{self.videos} videos: {self.done} processed, {self.skipped} skipped (done before, unchanged), "
+            f"{self.failed} failed",
+            f"redone: {self.redone_failed} that had failed, {self.redone_changed} whose content or config changed",
+            f"frames: {self.frames} in {self.seconds:.1f} s ({fps:.1f} fps over the fleet)",
+            f"outputs: {self.outdir} (telemetry/, events.parquet, summary.parquet, summary.csv, manifest.json)",
+        ]
+
+
+# -- inputs ------------------------------------------------------------------------------------
+def _is_url(s: str) -> bool:
+    return bool(re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*://", s))
+
+
+def _local(url: str) -> str | None:
+    """Give the local path of an input, or None when it is remote."""
+    if not _is_url(url):
+        return url
+    return url[len("file://"):] if url.startswith("file://") else None
+
+
+def _norm(s: str) -> str:
+    """Give a stable key for an input: absolute local paths, URLs as given."""
+    local = _local(s)
+    return os.path.abspath(local) if local is not None else s
+
+
+def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
+    """List the videos named by files, folders (searched recursively) and text files of paths.
+
+    Parameters
+    ----------
+    inputs : sequence of str or Path
+        Video files, folders, or ``.txt``/``.lst`` files with one path or URL a line (blank
+        lines and lines starting with ``#`` are skipped); local paths or fsspec URLs.
+
+    Returns
+    -------
+    list of str
+        The videos, each once, in the order given (a folder's in sorted order); local paths
+        made absolute.
+
+    Raises
+    ------
+    LaneFinderError
+        When an input does not exist, or no video is found.
+
+    Examples
+    --------
+    >>> [Path(p).name for p in find_inputs(["data/clips"])]
+    ['challenge_3-7s.mp4', 'harder_challenge_0-4s.mp4', 'project_37-47s.mp4']
+    """
+    found: list[str] = []
+    for raw in inputs:
+        s = str(raw)
+        fs, path = fsspec.core.url_to_fs(s)
+        try:
+            isdir = fs.isdir(path)
+            exists = isdir or fs.isfile(path)
+        except (OSError, ValueError) as e:
+            raise LaneFinderError(f"cannot read {s}: {e}") from None
+        if not exists:
+            raise LaneFinderError(f"input not found: {s}")
+        if isdir:
+            files = sorted(p for p in fs.find(path) if p.lower().endswith(VIDEO_SUFFIXES)
+                           and not posixpath.basename(p).startswith("."))
+            found += [_rebuild(s, fs, p) for p in files]
+        elif path.lower().endswith(LIST_SUFFIXES):
+            found += _read_list(fs, path, s)
+        else:
+            found.append(s)
+    keys = list(dict.fromkeys(_norm(f) for f in found))
+    if not keys:
+        raise LaneFinderError("no videos found in " + ", ".join(map(str, inputs)))
+    return keys
+
+
+def _rebuild(given: str, fs, path: str) -> str:
+    """Give a path found under a folder in the form the folder was given (local path or URL)."""
+    if _local(given) is not None:
+        return path
+    return fs.unstrip_protocol(path)
+
+
+def _read_list(fs, path: str, given: str) -> list[str]:
+    try:
+        text = fs.cat_file(path).decode()
+    except (OSError, UnicodeDecodeError) as e:
+        raise LaneFinderError(f"cannot read the list of inputs {given}: {e}") from None
+    base = posixpath.dirname(path)
+    out = []
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        local = _local(given)
+        if not _is_url(line) and local is not None and not os.path.isabs(line):
+            line = os.path.join(os.path.dirname(os.path.abspath(local)), line)
+        elif not _is_url(line) and local is None:
+            line = fs.unstrip_protocol(posixpath.join(base, line))
+        out.append(line)
+    return out
+
+
+def content_hash(url: str) -> str:
+    """Hash a video's content: its size, its first and last MB and 16 evenly spaced MB.
+
+    Sampling keeps this cheap on hours of footage (at most 18 MB read a file); a change that
+    keeps the size and touches none of the sampled blocks goes unnoticed.
+
+    Parameters
+    ----------
+    url : str
+        A local path or an fsspec URL.
+
+    Returns
+    -------
+    str
+        A BLAKE2b hex digest (32 characters).
+
+    Raises
+    ------
+    LaneFinderError
+        When the file cannot be read.
+
+    Examples
+    --------
+    >>> len(content_hash("data/clips/project_37-47s.mp4"))
+    32
+    """
+    try:
+        fs, path = fsspec.core.url_to_fs(url)
+        size = fs.size(path)
+        h = hashlib.blake2b(str(size).encode(), digest_size=16)
+        with fs.open(path, "rb") as f:
+            if size <= (_HASH_BLOCKS + 2) * _HASH_BLOCK:
+                h.update(f.read())
+            else:
+                for off in [0, *(round(size * (i + 1) / (_HASH_BLOCKS + 1)) for i in range(_HASH_BLOCKS)),
+                            size - _HASH_BLOCK]:
+                    f.seek(off)
+                    h.update(f.read(_HASH_BLOCK))
+        return h.hexdigest()
+    except (OSError, ValueError) as e:
+        raise LaneFinderError(f"cannot read {url}: {getattr(e, 'strerror', None) or e}") from None
+
+
+def config_hash(cfg: Config) -> str:
+    """Hash a configuration (and the lanefinder version, whose results it would give).
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration.
+
+    Returns
+    -------
+    str
+        A hex digest (16 characters).
+
+    Examples
+    --------
+    >>> config_hash(Config()) == config_hash(Config())
+    True
+    """
+    text = f"{__version__}\n{dump_config(cfg, 'json')}"
+    return hashlib.blake2b(text.encode(), digest_size=8).hexdigest()
+
+
+def plan_segments(video_id: str, url: str, duration_s: float, fps: float, segment_s: float,
+                  warmup_s: float) -> list[Segment]:
+    """Cut a video into segments of ``segment_s`` (the last one runs to the end).
+
+    Parameters
+    ----------
+    video_id, url : str
+        The video's name and input.
+    duration_s : float
+        Its duration, s (0 when unknown: one segment).
+    fps : float
+        Its frame rate, frames/s.
+    segment_s : float
+        Segment length, s (0: one segment).
+    warmup_s : float
+        Warm-up before each segment but the first, s.
+
+    Returns
+    -------
+    list of Segment
+        In order; together they cover every frame exactly once.
+
+    Examples
+    --------
+    >>> [(s.start_s, s.end_s) for s in plan_segments("a", "a.mp4", 250.0, 25.0, 100.0, 4.0)]
+    [(0.0, 100.0), (100.0, 200.0), (200.0, None)]
+    """
+    n = 1 if segment_s <= 0 or duration_s <= 0 else max(1, math.ceil(duration_s / segment_s - 0.25))
+    return [Segment(video_id=video_id, url=url, index=i, start_s=i * segment_s if n > 1 else 0.0,
+                    end_s=(i + 1) * segment_s if i < n - 1 else None, warmup_s=warmup_s if i else 0.0, fps=fps)
+            for i in range(n)]
+
+
+def _video_ids(keys: Sequence[str], known: dict[str, str]) -> dict[str, str]:
+    """Give every input a stable, unique, file-safe name (its partition value)."""
+    ids = dict(known)
+    used = set(ids.values())
+    for k in keys:
+        if k in ids:
+            continue
+        stem = re.sub(r"[^A-Za-z0-9._-]+", "_", posixpath.splitext(posixpath.basename(k.rstrip("/")))[0]) or "video"
+        name = stem
+        if name in used:
+            name = f"{stem}-{hashlib.blake2b(k.encode(), digest_size=3).hexdigest()}"
+        ids[k] = name
+        used.add(name)
+    return ids
+
+
+# -- the work on a worker ----------------------------------------------------------------------
+def _probe(url: str) -> dict:
+    """On a worker: the video's facts and content hash, or the reason it cannot be read."""
+    from .video import VideoInfo
+
+    try:
+        with _local_copy(url) as path:
+            info = VideoInfo.from_path(path)
+        return {"fps": float(info.fps), "duration_s": info.duration_s, "frames": info.total_frames,
+                "size": list(info.size), "hash": content_hash(url)}
+    except LaneFinderError as e:
+        return {"error": str(e)}
+    except Exception as e:  # a worker never dies of one input
+        return {"error": f"{type(e).__name__}: {e}"}
+
+
+@contextlib.contextmanager
+def _local_copy(url: str):
+    """Give a local path for an input: itself when local, else a temporary copy."""
+    local = _local(url)
+    if local is not None:
+        yield local
+        return
+    suffix = posixpath.splitext(url)[1] or ".mp4"
+    fd, tmp = tempfile.mkstemp(prefix="lanefinder-", suffix=suffix)
+    os.close(fd)
+    try:
+        try:
+            fs, path = fsspec.core.url_to_fs(url)
+            fs.get_file(path, tmp)
+        except (OSError, ValueError) as e:
+            raise LaneFinderError(f"cannot read {url}: {e}") from None
+        yield tmp
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+
+def _put(fs, local: str, dest: str) -> None:
+    """Copy a finished local file to ``dest`` on ``fs``: to a hidden name first, then moved into place."""
+    folder, name = posixpath.split(dest)
+    fs.makedirs(folder, exist_ok=True)
+    hidden = posixpath.join(folder, f".{name}.{os.getpid()}.tmp")
+    fs.put_file(local, hidden)
+    fs.mv(hidden, dest)
+
+
+def run_segment(seg: Segment, cfg: Config, outdir: str, write_video: bool = False) -> dict:
+    """Process one segment (a Dask task): write its telemetry part, return its frames' numbers.
+
+    Parameters
+    ----------
+    seg : Segment
+        What to process.
+    cfg : Config
+        The configuration.
+    outdir : str
+        The batch's output folder (local path or fsspec URL).
+    write_video : bool
+        Also write the annotated video to ``OUTDIR/videos/<id>.mp4`` (for a one-segment video).
+
+    Returns
+    -------
+    dict
+        ``video_id``, ``index``, ``frames`` (rows kept), ``seconds`` (processing time),
+        ``damaged``, ``truncated``, ``columns`` (``frame``, ``time_s``, ``state``, ``offset_m``,
+        ``width_m`` of every kept frame), ``both_found``; or ``error`` with the reason.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> seg = Segment(video_id="p", url="data/clips/project_37-47s.mp4", index=0, start_s=0.0, end_s=0.4,
+    ...               warmup_s=0.0, fps=25.0)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     r = run_segment(seg, Config(), d)
+    >>> r["frames"], r["columns"]["state"][:2]
+    (10, ['re-detect', 'tracking'])
+    """
+    from .videojob import process_video
+
+    t0 = time.perf_counter()
+    try:
+        fs, root = fsspec.core.url_to_fs(outdir)
+        with _local_copy(seg.url) as src, tempfile.TemporaryDirectory(prefix="lanefinder-seg-") as tmp:
+            tele = Path(tmp, "t.parquet")
+            video = Path(tmp, f"{seg.video_id}.mp4") if write_video else None
+            s = process_video(src, video, cfg, start_s=seg.run_from_s, end_s=seg.end_s, telemetry=tele,
+                              progress=False)
+            table = pq.read_table(tele)
+            keep = pc.greater_equal(table["time_s"], seg.start_s - 0.5 / seg.fps) if seg.index else None
+            if keep is not None:
+                table = table.filter(keep)
+            part = Path(tmp, "part.parquet")
+            pq.write_table(table, part, compression="zstd")
+            _put(fs, str(part), posixpath.join(_partition(root, seg.video_id), f"part-{seg.index:04d}.parquet"))
+            if video is not None:
+                _put(fs, str(video), posixpath.join(root, "videos", f"{seg.video_id}.mp4"))
+        cols = table.select(list(_EVENT_COLUMNS)).to_pydict()
+        both = pc.sum(pc.and_(table["left_found"], table["right_found"])).as_py() or 0
+        return {"video_id": seg.video_id, "index": seg.index, "frames": table.num_rows, "columns": cols,
+                "both_found": int(both), "damaged": s.damaged, "truncated": s.truncated,
+                "seconds": time.perf_counter() - t0}
+    except LaneFinderError as e:
+        return {"video_id": seg.video_id, "index": seg.index, "error": str(e)}
+    except Exception as e:  # one segment's failure never takes the worker or the fleet down
+        return {"video_id": seg.video_id, "index": seg.index, "error": f"{type(e).__name__}: {e}"}
+
+
+# -- the manifest and the fleet tables ---------------------------------------------------------
+def _load_manifest(fs, root: str) -> dict[str, VideoEntry]:
+    path = posixpath.join(root, _MANIFEST)
+    if not fs.exists(path):
+        return {}
+    try:
+        data = json.loads(fs.cat_file(path))
+        return {k: VideoEntry(**v) for k, v in data["videos"].items()}
+    except (ValueError, KeyError, TypeError, OSError) as e:
+        raise LaneFinderError(f"{path} is not a lanefinder batch manifest ({e}); move it away to start afresh") \
+            from None
+
+
+def _write_bytes(fs, dest: str, data: bytes) -> None:
+    folder, name = posixpath.split(dest)
+    fs.makedirs(folder, exist_ok=True)
+    hidden = posixpath.join(folder, f".{name}.tmp")
+    with fs.open(hidden, "wb") as f:
+        f.write(data)
+    fs.mv(hidden, dest)
+
+
+def _save_manifest(fs, root: str, entries: dict[str, VideoEntry], cfg_hash: str) -> None:
+    data = {"lanefinder": __version__, "config_hash": cfg_hash, "videos": {k: asdict(v) for k, v in entries.items()}}
+    _write_bytes(fs, posixpath.join(root, _MANIFEST), json.dumps(data, indent=1).encode())
+
+
+_SUMMARY_FIELDS = ("video", "input", "status", "error", "frames", "duration_s", "pct_lane", "pct_lost",
+                   "pct_both_lines", "mean_width_m", "fps", "damaged_packets", "truncated", "setup", "config_hash",
+                   "content_hash", "events_departure_left", "events_departure_right", "events_lane_change_left",
+                   "events_lane_change_right", "events_lost")
+
+
+def _summarise(results: list[dict], fps: float, cfg: Config) -> tuple[dict, list[dict]]:
+    """Give a video's summary and events from its segments' results (in order)."""
+    from .events import detect_events, event_row
+
+    cols: dict[str, list] = {k: [] for k in _EVENT_COLUMNS}
+    for r in results:
+        for k in _EVENT_COLUMNS:
+            cols[k] += r["columns"][k]
+    n = len(cols["frame"])
+    rows = [dict(zip(_EVENT_COLUMNS, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+    events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
+    widths = [w for w in cols["width_m"] if w is not None]
+    lost = sum(s == "lost" for s in cols["state"])
+    seconds = sum(r["seconds"] for r in results)
+    kinds = {k: sum(e["kind"] == k for e in events) for k in
+             ("departure-left", "departure-right", "lane-change-left", "lane-change-right", "lost")}
+    b = cfg.birdseye
+    summary = {
+        "frames": n, "duration_s": round(n / fps, 3) if fps else None,
+        "pct_lane": round(100 * (n - lost) / n, 2) if n else None, "pct_lost": round(100 * lost / n, 2) if n else None,
+        "pct_both_lines": round(100 * sum(r["both_found"] for r in results) / n, 2) if n else None,
+        "mean_width_m": round(sum(widths) / len(widths), 4) if widths else None,
+        "fps": round(n / seconds, 2) if seconds else None,
+        "damaged_packets": sum(r["damaged"] for r in results), "truncated": any(r["truncated"] for r in results),
+        "setup": json.dumps({"camera": cfg.camera.model, "src": b.src, "reference_size": b.reference_size}),
+        **{f"events_{k.replace('-', '_')}": v for k, v in kinds.items()},
+    }
+    return summary, events
+
+
+def _fleet_tables(fs, root: str, entries: dict[str, VideoEntry]) -> None:
+    """Write summary.parquet, summary.csv and events.parquet from the manifest's entries."""
+    srows = []
+    for e in entries.values():
+        row = {k: None for k in _SUMMARY_FIELDS}
+        row.update(e.summary if e.status == "done" else {})
+        row.update({"video": e.video_id, "input": e.url, "status": e.status, "error": e.error,
+                    "config_hash": e.config_hash, "content_hash": e.content_hash})
+        srows.append(row)
+    types = {"video": pa.string(), "input": pa.string(), "status": pa.string(), "error": pa.string(),
+             "frames": pa.int64(), "damaged_packets": pa.int64(), "truncated": pa.bool_(), "setup": pa.string(),
+             "config_hash": pa.string(), "content_hash": pa.string()}
+    schema = pa.schema([pa.field(k, types.get(k, pa.int64() if k.startswith("events_") else pa.float64()))
+                        for k in _SUMMARY_FIELDS])
+    summary = pa.Table.from_pylist(srows, schema=schema)
+    erows = [{"video": e.video_id, **ev} for e in entries.values() if e.status == "done" for ev in e.events]
+    events = pa.Table.from_pylist(erows, schema=_events_schema())
+    for name, table in (("summary.parquet", summary), ("events.parquet", events)):
+        buf = pa.BufferOutputStream()
+        pq.write_table(table, buf)
+        _write_bytes(fs, posixpath.join(root, name), buf.getvalue().to_pybytes())
+    text = io.StringIO()
+    w = csv.DictWriter(text, fieldnames=list(_SUMMARY_FIELDS))
+    w.writeheader()
+    w.writerows({k: ("" if v is None else v) for k, v in r.items()} for r in srows)
+    _write_bytes(fs, posixpath.join(root, "summary.csv"), text.getvalue().encode())
+
+
+def _events_schema() -> pa.Schema:
+    from .events import EVENT_FIELDS
+
+    types = {"kind": pa.string(), "start_frame": pa.int64(), "end_frame": pa.int64()}
+    return pa.schema([pa.field("video", pa.string())] + [pa.field(k, types.get(k, pa.float64())) for k in EVENT_FIELDS])
+
+
+# -- the client --------------------------------------------------------------------------------
+@contextlib.contextmanager
+def _client(workers: int | None, scheduler: str | None, in_process: bool):
+    """Give a Dask client: on a running scheduler, or on a local cluster that ends with the run."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as e:
+            raise LaneFinderError(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = workers or os.cpu_count() or 1
+    # The scheduler's web server (and dashboard) on a free port of this machine only.
+    # In-process workers (for memory:// URLs, which live in this process) talk over inproc://.
+    where = {} if in_process else {"host": "127.0.0.1"}
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=not in_process, dashboard_address="127.0.0.1:0",
+                      silence_logs=logging.ERROR, **where) as cluster, Client(cluster) as client:
+        yield client
+
+
+def _dashboard(client) -> str | None:
+    with contextlib.suppress(Exception):
+        services = client.scheduler_info().get("services", {})
+        if "dashboard" in services:
+            return client.dashboard_link
+    return None
+
+
+def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config | None = None,
+              workers: int | None = None, scheduler: str | None = None, write_video: bool = False,
+              progress: bool = True, echo: Callable[[str], None] | None = None) -> BatchReport:
+    """Find the lane in every frame of a fleet of videos, on a Dask cluster.
+
+    See the README's "Fleets" section for the outputs.
+
+    Parameters
+    ----------
+    inputs : sequence of str or Path
+        Videos, folders and lists of paths (see :func:`find_inputs`); local paths or fsspec URLs.
+    outdir : str or Path
+        The output folder (local path or fsspec URL); a re-run into it resumes.
+    config : Config, optional
+        The configuration (defaults when omitted).
+    workers : int, optional
+        Local workers (default one per core); ignored with ``scheduler``.
+    scheduler : str, optional
+        The address of a running Dask scheduler (``tcp://HOST:PORT``).
+    write_video : bool
+        Also write annotated videos (``OUTDIR/videos/<id>.mp4``); videos are then not split.
+    progress : bool
+        Show a progress bar over the fleet.
+    echo : callable, optional
+        Where to print notes (the dashboard address); default nowhere.
+
+    Returns
+    -------
+    BatchReport
+        Counts of processed, skipped, redone and failed videos, frames and time.
+
+    Raises
+    ------
+    LaneFinderError
+        When no input is found, the output folder cannot be written, or the scheduler cannot be reached.
+        A video that fails does not raise: it is recorded in the summary and the manifest.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     r = run_batch(["data/clips/challenge_3-7s.mp4"], d, workers=1, progress=False)
+    ...     names = sorted(p.name for p in Path(d).iterdir())
+    >>> r.done, r.failed, names
+    (1, 0, ['events.parquet', 'manifest.json', 'summary.csv', 'summary.parquet', 'telemetry'])
+    """
+    from tqdm import tqdm
+
+    cfg = config or Config()
+    say = echo or (lambda _s: None)
+    t0 = time.perf_counter()
+    keys = find_inputs(inputs)
+    out = str(outdir)
+    fs, root = fsspec.core.url_to_fs(out)
+    _check_outdir(fs, root, out, keys)
+    entries = _load_manifest(fs, root)
+    ids = _video_ids(keys, {k: e.video_id for k, e in entries.items()})
+    chash = config_hash(cfg)
+    in_process = any(k.startswith("memory://") for k in [*keys, out])
+    seg_s = 0.0 if write_video else cfg.batch.segment_s
+    counts = {"done": 0, "skipped": 0, "redone_failed": 0, "redone_changed": 0, "failed": 0, "frames": 0}
+    with _client(workers, scheduler, in_process) as client:
+        if (link := _dashboard(client)) is not None:
+            say(f"Dask dashboard: {link}")
+        probes = dict(zip(keys, client.gather(client.map(_probe, keys, pure=False)), strict=True))
+        plan: dict[str, list[Segment]] = {}
+        why: dict[str, str] = {}
+        for k in keys:
+            p, old = probes[k], entries.get(k)
+            if "error" in p:
+                entries[k] = VideoEntry(url=k, video_id=ids[k], content_hash="", config_hash=chash, status="failed",
+                                        error=p["error"])
+                counts["failed"] += 1
+                if old is not None:
+                    counts["redone_failed" if old.status == "failed" else "redone_changed"] += 1
+                continue
+            if old and old.status == "done" and old.content_hash == p["hash"] and old.config_hash == chash \
+                    and _parts_exist(fs, root, old.video_id):
+                counts["skipped"] += 1
+                continue
+            why[k] = "" if old is None else ("failed" if old.status == "failed" else "changed")
+            _remove_partition(fs, root, ids[k])
+            plan[k] = plan_segments(ids[k], k, p["duration_s"], p["fps"], seg_s, cfg.batch.warmup_s)
+        _save_manifest(fs, root, entries, chash)
+        total = sum(max(1, probes[k]["frames"]) for k in plan)
+        bar = tqdm(total=total, unit="frame", disable=None if progress else True, dynamic_ncols=True, desc="fleet")
+        futures = {client.submit(run_segment, s, cfg, out, write_video, pure=False): s
+                   for k in plan for s in plan[k]}
+        done_segments: dict[str, list[dict]] = {k: [] for k in plan}
+        by_id = {ids[k]: k for k in plan}
+        from distributed import as_completed
+
+        try:
+            for fut in as_completed(futures):
+                r = fut.result()
+                k = by_id[r["video_id"]]
+                done_segments[k].append(r)
+                bar.update(r.get("frames", 0))
+                if len(done_segments[k]) < len(plan[k]):
+                    continue
+                entry = _finish(k, ids[k], probes[k], sorted(done_segments[k], key=lambda x: x["index"]), chash, cfg)
+                if entry.status == "failed":
+                    _remove_partition(fs, root, ids[k])
+                    counts["failed"] += 1
+                else:
+                    counts["done"] += 1
+                    counts["frames"] += entry.summary["frames"]
+                if why[k]:
+                    counts[f"redone_{why[k]}"] += 1
+                entries[k] = entry
+                _save_manifest(fs, root, entries, chash)
+                bar.set_postfix(failed=counts["failed"])
+        finally:
+            bar.close()
+    _fleet_tables(fs, root, {k: entries[k] for k in keys if k in entries})
+    return BatchReport(videos=len(keys), outdir=out, seconds=time.perf_counter() - t0, dashboard=link, **counts)
+
+
+def _finish(key: str, video_id: str, probe: dict, results: list[dict], chash: str, cfg: Config) -> VideoEntry:
+    """Give the manifest entry of a video whose segments are all back."""
+    errors = [r["error"] for r in results if "error" in r]
+    if errors:
+        return VideoEntry(url=key, video_id=video_id, content_hash=probe["hash"], config_hash=chash,
+                          status="failed", error=errors[0])
+    summary, events = _summarise(results, probe["fps"], cfg)
+    return VideoEntry(url=key, video_id=video_id, content_hash=probe["hash"], config_hash=chash, status="done",
+                      summary=summary, events=events)
+
+
+def _check_outdir(fs, root: str, out: str, keys: Iterable[str]) -> None:
+    """Refuse an output folder that is a file, or that holds an input."""
+    if fs.isfile(root):
+        raise LaneFinderError(f"the output folder is a file: {out}")
+    local = _local(out)
+    if local is not None:
+        base = os.path.abspath(local)
+        for k in keys:
+            if _local(k) is not None and os.path.abspath(k).startswith(base + os.sep):
+                raise LaneFinderError(f"an input lies in the output folder (it could be written over): {k}")
+    try:
+        fs.makedirs(root, exist_ok=True)
+    except OSError as e:
+        raise LaneFinderError(f"cannot write in {out}: {getattr(e, 'strerror', None) or e}") from None
+
+
+def _partition(root: str, video_id: str) -> str:
+    return posixpath.join(root, "telemetry", f"video={video_id}")
+
+
+def _parts_exist(fs, root: str, video_id: str) -> bool:
+    with contextlib.suppress(OSError):
+        return any(p.endswith(".parquet") for p in fs.ls(_partition(root, video_id), detail=False))
+    return False
+
+
+def _remove_partition(fs, root: str, video_id: str) -> None:
+    """Drop a video's old rows before it is processed again (a re-run never duplicates rows)."""
+    path = _partition(root, video_id)
+    with contextlib.suppress(FileNotFoundError):
+        if fs.exists(path):
+            fs.rm(path, recursive=True)
+
+
+def batch_schema() -> pa.Schema:
+    """Return the schema of the fleet dataset's rows: ``video`` and the telemetry's columns.
+
+    Returns
+    -------
+    pyarrow.Schema
+        ``video`` (string) and :func:`lanefinder.tables.telemetry_schema`.
+
+    Examples
+    --------
+    >>> batch_schema().names[:3]
+    ['video', 'frame', 'time_s']
+    """
+    return telemetry_schema({"video": pa.string()})
