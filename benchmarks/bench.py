@@ -73,6 +73,40 @@ def bare_loop(clip: Path, out: Path, cfg: Config, n: int) -> float:
     return count / (time.perf_counter() - t)
 
 
+def decode_loop(clip: Path, n: int) -> float:
+    """fps of a bare PyAV decode to BGR arrays (what the pipeline is given), nothing else."""
+    t = time.perf_counter()
+    count = 0
+    for _ in frames(clip):
+        count += 1
+        if count >= n:
+            break
+    return count / (time.perf_counter() - t)
+
+
+def bench_batch() -> dict:
+    """Fleet fps of `lanefinder batch` over 8 clips with 1 and 2 local workers (telemetry only)."""
+    import shutil
+
+    from lanefinder.batch import run_batch
+
+    clips = sorted((ROOT / "data" / "clips").glob("*.mp4"))
+    out: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        fleet = Path(tmp) / "fleet"
+        fleet.mkdir()
+        for i in range(8):
+            shutil.copy(clips[i % len(clips)], fleet / f"clip{i}.mp4")
+        for workers in (1, 2):
+            r = run_batch([fleet], Path(tmp) / f"out{workers}", workers=workers, progress=False)
+            out[f"workers_{workers}"] = {"frames": r.frames, "seconds": r.seconds, "fps": r.frames / r.seconds}
+    one, two = out["workers_1"]["fps"], out["workers_2"]["fps"]
+    out["scaling_2_over_1"] = two / one
+    print(f"batch over 8 clips ({out['workers_1']['frames']} frames, wall time incl. cluster start): "
+          f"1 worker {one:.1f} fps, 2 workers {two:.1f} fps, scaling {two / one:.2f}x")
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--clip", type=Path, default=ROOT / "data" / "clips" / "project_37-47s.mp4")
@@ -80,6 +114,7 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=ROOT / "output" / "bench.json")
     ap.add_argument("--memory", type=Path, help="a long video to watch memory on (e.g. the project video)")
     ap.add_argument("--repeat", type=int, default=3, help="end-to-end runs; the best is kept")
+    ap.add_argument("--no-batch", action="store_true", help="skip the fleet benchmark (8 clips on 1 and 2 workers)")
     a = ap.parse_args()
     cfg = Config()
     report: dict = {"clip": str(a.clip), "cpu_count": os.cpu_count(), "preset": cfg.video.preset, "crf": cfg.video.crf}
@@ -152,7 +187,14 @@ def main() -> int:
             floor.append(bare_loop(a.clip, Path(tmp) / "bare.mp4", cfg, n))
             s = process_video(a.clip, Path(tmp) / "e2e.mp4", cfg, progress=False, max_frames=n)
             e2e.append(s.fps)
+        # -- telemetry only (no video written) vs a bare PyAV decode loop, same run ------------------
+        tele, decode_only = [], []
+        for _ in range(a.repeat):
+            decode_only.append(decode_loop(a.clip, n))
+            s = process_video(a.clip, None, cfg, telemetry=Path(tmp) / "t.parquet", progress=False, max_frames=n)
+            tele.append(s.fps)
     e2e_fps, floor_fps = max(e2e), max(floor)
+    tele_fps, decode_fps = max(tele), max(decode_only)
 
     print(f"\n{'stage':<46} {'median ms':>10} {'p90 ms':>8} {'fps':>8}")
     rows = {"decode (threaded)": {"median_ms": decode_ms, "p90_ms": float("nan"), "fps": 1000 / decode_ms}}
@@ -170,6 +212,12 @@ def main() -> int:
     print(f"bare decode+encode loop ({cfg.video.preset}, crf {cfg.video.crf}): {floor_fps:.1f} fps "
           f"(best of {a.repeat}: {', '.join(f'{x:.1f}' for x in floor)})")
     print(f"ratio to the floor: {e2e_fps / floor_fps:.2f} (target >= 0.8)")
+    print(f"telemetry only (`lanefinder video IN --telemetry T.parquet`): {tele_fps:.1f} fps; bare PyAV decode "
+          f"loop: {decode_fps:.1f} fps; ratio {tele_fps / decode_fps:.2f} (target >= 0.8)")
+    report.update({"telemetry_only_fps": tele_fps, "decode_only_fps": decode_fps,
+                   "telemetry_ratio_to_decode": tele_fps / decode_fps})
+    if not a.no_batch:
+        report["batch"] = bench_batch()
     report.update({"stages": rows, "per_frame_ms": total, "naive_speedup": speedup, "end_to_end_fps": e2e_fps,
                    "floor_fps": floor_fps, "ratio_to_floor": e2e_fps / floor_fps, "end_to_end_runs": e2e,
                    "floor_runs": floor})

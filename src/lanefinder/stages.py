@@ -8,11 +8,12 @@ import cv2
 import numpy as np
 
 from .io import OutputSet, write_image
+from .lane import LaneResult
 from .pipeline import LaneFinder
 from .render import annotate, search_view
 from .threshold import threshold
 
-__all__ = ["stage_images", "write_stages"]
+__all__ = ["inspect_frame", "stage_images", "write_stages"]
 
 
 def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]:
@@ -39,6 +40,34 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
     >>> list(images), images["5_windows"].shape
     (['1_undistorted', '2_binary', '3_birdseye', '4_birdseye_binary', '5_windows', '6_final'], (300, 400, 3))
     """
+    return inspect_frame(frame, finder)[0]
+
+
+def inspect_frame(frame: np.ndarray, finder: LaneFinder) -> tuple[dict[str, np.ndarray], LaneResult]:
+    """Return the named stage images of one frame, found blind (no track), and its result.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The original frame, BGR.
+    finder : LaneFinder
+        Gives the configuration and the camera.
+
+    Returns
+    -------
+    images : dict of str to ndarray
+        As :func:`stage_images` gives them.
+    result : LaneResult
+        The frame's result.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> from lanefinder import LaneFinder
+    >>> images, result = inspect_frame(cv2.imread("data/test_images/test3.jpg"), LaneFinder())
+    >>> len(images), result.left.found
+    (6, True)
+    """
     debug = LaneFinder(finder.config, camera=finder.camera, keep_debug=True)
     result = debug.process(frame)
     be = debug.birdseye((frame.shape[1], frame.shape[0]))
@@ -54,7 +83,7 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
         "4_birdseye_binary": result.binary * 255,
         "5_windows": search_view(result.binary, result.search, result),
         "6_final": annotate(frame, result, be, finder.config.render),
-    }
+    }, result
 
 
 def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder,

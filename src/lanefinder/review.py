@@ -1,0 +1,791 @@
+"""``lanefinder review``: a local web page over a batch folder or a video with its telemetry.
+
+The server (FastAPI on uvicorn) reads what lies under PATH and the source videos named by
+its manifest, decodes frames with PyAV on request, draws the lane from the telemetry, and
+re-runs a single frame with a changed configuration for the inspector.  The page is plain
+HTML, CSS and JavaScript shipped in this package (``review_static/``); the plots use the
+plotly.js that the ``plotly`` Python package installs.  There is no JavaScript build step.
+
+Safe by default: it binds 127.0.0.1; files are served only from under PATH (no traversal,
+no absolute paths, no symlinks that leave it); request bodies and frame indices are
+bounded; the one thing it writes is the config that "Save config" asks for.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import json
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from pydantic import BaseModel, ValidationError
+
+from .config import Config, config_from_dict, dump_config, load_config
+from .errors import LaneFinderError
+from .io import atomic_write_text
+from .telemetry import TELEMETRY_SUFFIXES, read_telemetry
+
+__all__ = ["MAX_BODY_BYTES", "TUNABLE_SECTIONS", "FrameReader", "Review", "VideoSource", "config_form", "create_app",
+           "draw_row", "load_review", "serve"]
+
+#: Largest request body accepted, bytes.
+MAX_BODY_BYTES = 64 * 1024
+#: The config sections the inspector's form offers.
+TUNABLE_SECTIONS = ("threshold", "search", "tracking", "render")
+_STATIC = Path(__file__).with_name("review_static")
+_STATIC_FILES = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
+# Decoded frames kept per video (for stepping back and re-rendering the same frame).
+_CACHE_FRAMES = 16
+# Seeking is to a keyframe; a frame this few ahead of the last one decoded is reached by decoding on.
+_DECODE_ON_FRAMES = 90
+_JPEG_QUALITY = 85
+_SERIES = ("time_s", "state", "offset_m", "radius_m", "width_m", "left_conf", "right_conf")
+
+
+class FrameReader:
+    """Random access to a video's frames: PyAV, seeking to keyframes, a small cache.
+
+    Parameters
+    ----------
+    path : str or Path
+        The video.
+
+    Attributes
+    ----------
+    fps : float
+        Frame rate, frames/s.
+    frames : int
+        Frame count (from the container).
+    size : tuple of int
+        (width, height), pixels.
+
+    Examples
+    --------
+    >>> r = FrameReader("data/clips/project_37-47s.mp4")
+    >>> r.get(30).shape, r.frames
+    ((720, 1280, 3), 250)
+    >>> r.close()
+    """
+
+    def __init__(self, path: str | Path):
+        import av
+
+        from .video import VideoInfo
+
+        info = VideoInfo.from_path(path)
+        self.path = str(path)
+        self.fps, self.frames, self.size = float(info.fps), info.total_frames, info.size
+        self._av = av
+        self._c = av.open(self.path)
+        self._s = self._c.streams.video[0]
+        self._s.thread_type = "AUTO"
+        self._tb = self._s.time_base
+        self._t0 = self._s.start_time or 0
+        self._it = None
+        self._last = -1
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def _index(self, f) -> int:
+        return round(float((f.pts - self._t0) * self._tb) * self.fps) if f.pts is not None else self._last + 1
+
+    def get(self, n: int) -> np.ndarray:
+        """Return frame ``n`` (BGR).
+
+        Parameters
+        ----------
+        n : int
+            Frame index, 0 <= n < frames.
+
+        Returns
+        -------
+        (H, W, 3) uint8 ndarray
+            The frame.
+
+        Raises
+        ------
+        LaneFinderError
+            When ``n`` is out of range or cannot be decoded.
+        """
+        if not 0 <= n < self.frames:
+            raise LaneFinderError(f"frame {n} is out of range 0..{self.frames - 1}")
+        with self._lock:
+            if n in self._cache:
+                self._cache.move_to_end(n)
+                return self._cache[n]
+            if self._it is None or not (self._last < n <= self._last + _DECODE_ON_FRAMES):
+                self._c.seek(int((n / self.fps) / self._tb) + self._t0, stream=self._s, backward=True,
+                             any_frame=False)
+                self._it = self._c.decode(self._s)
+                self._last = -1
+            try:
+                for f in self._it:
+                    i = self._index(f)
+                    self._last = i
+                    if i >= n:
+                        img = f.to_ndarray(format="bgr24")
+                        self._cache[n] = img
+                        if len(self._cache) > _CACHE_FRAMES:
+                            self._cache.popitem(last=False)
+                        return img
+            except self._av.error.FFmpegError as e:
+                self._it = None
+                raise LaneFinderError(f"cannot decode frame {n} of {self.path}: {e}") from None
+            self._it = None
+            raise LaneFinderError(f"frame {n} could not be decoded from {self.path}")
+
+    def close(self) -> None:
+        """Close the video."""
+        with contextlib.suppress(Exception):
+            self._c.close()
+
+
+@dataclass
+class VideoSource:
+    """One video of a review: its source, telemetry and events.
+
+    Attributes
+    ----------
+    video_id : str
+        Its name (the batch partition value, or the file's stem).
+    source : Path or None
+        The video file (None when it is not readable here).
+    telemetry : list of Path
+        Its telemetry files (a batch partition's parts, or one file).
+    events : list of dict
+        Its lane events.
+    summary : dict
+        Its summary row (a batch's ``summary.parquet`` row, or figures computed from the telemetry).
+
+    Examples
+    --------
+    >>> VideoSource(video_id="a", source=None, telemetry=[]).rows()
+    []
+    """
+
+    video_id: str
+    source: Path | None
+    telemetry: list[Path]
+    events: list[dict] = field(default_factory=list)
+    summary: dict = field(default_factory=dict)
+    _rows: list[dict] | None = None
+    _by_frame: dict[int, dict] | None = None
+    _reader: FrameReader | None = None
+
+    def rows(self) -> list[dict]:
+        """Return the telemetry rows, in frame order (read once).
+
+        Returns
+        -------
+        list of dict
+            The rows.
+        """
+        if self._rows is None:
+            rows: list[dict] = []
+            for p in self.telemetry:
+                rows += read_telemetry(p)
+            for r in rows:
+                r.pop("video", None)
+            self._rows = sorted(rows, key=lambda r: r["frame"])
+            self._by_frame = {r["frame"]: r for r in self._rows}
+        return self._rows
+
+    def row_at(self, frame: int) -> dict | None:
+        """Return the telemetry row of a frame.
+
+        Parameters
+        ----------
+        frame : int
+            Frame index.
+
+        Returns
+        -------
+        dict or None
+            Its row, or None when the telemetry has none.
+        """
+        self.rows()
+        assert self._by_frame is not None
+        return self._by_frame.get(frame)
+
+    def reader(self) -> FrameReader:
+        """Return the frame reader of the source video (opened once).
+
+        Returns
+        -------
+        FrameReader
+            Its frames.
+
+        Raises
+        ------
+        LaneFinderError
+            When the source video is not available.
+        """
+        if self.source is None:
+            raise LaneFinderError(f"the source video of {self.video_id} is not available here")
+        if self._reader is None:
+            self._reader = FrameReader(self.source)
+        return self._reader
+
+
+class Review:
+    """What a review serves: the videos under PATH, the base config and where a saved config goes.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``lanefinder batch`` output folder, or a video with its telemetry beside it
+        (``<stem>.parquet``, ``.csv`` or ``.jsonl``, or given by ``telemetry``).
+    config : Config, optional
+        The configuration the inspector starts from (default: the defaults).
+    config_path : str or Path, optional
+        The file it came from (an input: never written over).
+    telemetry : str or Path, optional
+        The video's telemetry, when PATH is a video.
+
+    Attributes
+    ----------
+    root : Path
+        The folder whose files may be served.
+    mode : str
+        ``fleet`` or ``video``.
+    videos : dict of str to VideoSource
+        The videos, by id.
+
+    Raises
+    ------
+    LaneFinderError
+        When PATH is neither, or a video has no telemetry.
+
+    Examples
+    --------
+    >>> import tempfile, shutil
+    >>> from lanefinder.videojob import process_video
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = shutil.copy("data/clips/harder_challenge_0-4s.mp4", d / "h.mp4")
+    >>> _ = process_video(d / "h.mp4", None, telemetry=d / "h.csv", progress=False, max_frames=20)
+    >>> rv = Review(d / "h.mp4")
+    >>> rv.mode, list(rv.videos), len(rv.videos["h"].rows())
+    ('video', ['h'], 20)
+    """
+
+    def __init__(self, path: str | Path, config: Config | None = None, config_path: str | Path | None = None,
+                 telemetry: str | Path | None = None):
+        p = Path(path)
+        self.config = config or Config()
+        self.config_path = Path(config_path).resolve() if config_path else None
+        if p.is_dir():
+            self.root, self.mode = p.resolve(), "fleet"
+            self.videos = _fleet_videos(self.root)
+        elif p.is_file():
+            self.root, self.mode = p.resolve().parent, "video"
+            self.videos = {p.stem: _single_video(p.resolve(), telemetry, self.config)}
+        else:
+            raise LaneFinderError(f"not found: {p}")
+        self.inputs = {v.source for v in self.videos.values() if v.source} | \
+            {t for v in self.videos.values() for t in v.telemetry} | ({self.config_path} if self.config_path else set())
+
+    def video(self, video_id: str) -> VideoSource:
+        """Return a video by id.
+
+        Parameters
+        ----------
+        video_id : str
+            Its id.
+
+        Returns
+        -------
+        VideoSource
+            The video.
+
+        Raises
+        ------
+        KeyError
+            When there is no such video.
+        """
+        return self.videos[video_id]
+
+    def save_config(self, cfg: Config) -> Path:
+        """Write ``cfg`` as TOML next to the outputs, atomically, never over an input.
+
+        Parameters
+        ----------
+        cfg : Config
+            The configuration to save.
+
+        Returns
+        -------
+        Path
+            The file written (``review-config.toml``, or ``review-config-2.toml`` ... when that
+            name is an input).
+        """
+        for i in range(1, 100):
+            path = self.root / ("review-config.toml" if i == 1 else f"review-config-{i}.toml")
+            if path.resolve() not in self.inputs and not path.is_symlink():
+                break
+        atomic_write_text(path, dump_config(cfg, "toml"))
+        return path
+
+    def safe_path(self, rel: str) -> Path:
+        """Resolve a path relative to the root, refusing anything that leaves it.
+
+        Parameters
+        ----------
+        rel : str
+            A relative path (as in a URL).
+
+        Returns
+        -------
+        Path
+            The file, under the root.
+
+        Raises
+        ------
+        FileNotFoundError
+            For an absolute path, ``..``, a symlink that leaves the root, or a missing file.
+        """
+        if not rel or rel.startswith(("/", "\\")) or "\x00" in rel or Path(rel).is_absolute():
+            raise FileNotFoundError(rel)
+        p = (self.root / rel).resolve()
+        if not p.is_relative_to(self.root) or not p.is_file():
+            raise FileNotFoundError(rel)
+        return p
+
+
+def _fleet_videos(root: Path) -> dict[str, VideoSource]:
+    """Give the videos of a batch folder, from its manifest, summary and events."""
+    import pyarrow.parquet as pq
+
+    manifest = root / "manifest.json"
+    if not manifest.is_file():
+        raise LaneFinderError(f"{root} is not a lanefinder batch folder (no manifest.json); "
+                              "give a batch output folder or a video with its telemetry")
+    try:
+        entries = json.loads(manifest.read_text())["videos"]
+    except (ValueError, KeyError, OSError) as e:
+        raise LaneFinderError(f"{manifest} cannot be read: {e}") from None
+    events: dict[str, list[dict]] = {}
+    if (root / "events.parquet").is_file():
+        for e in pq.read_table(root / "events.parquet").to_pylist():
+            events.setdefault(e.pop("video"), []).append(e)
+    summary = {}
+    if (root / "summary.parquet").is_file():
+        summary = {r["video"]: r for r in pq.read_table(root / "summary.parquet").to_pylist()}
+    out = {}
+    for url, e in entries.items():
+        vid = e["video_id"]
+        part = root / "telemetry" / f"video={vid}"
+        local = url[len("file://"):] if url.startswith("file://") else (None if "://" in url else url)
+        src = Path(local) if local and Path(local).is_file() else None  # remote sources are not decoded here
+        out[vid] = VideoSource(video_id=vid, source=src,
+                               telemetry=sorted(part.glob("*.parquet")) if part.is_dir() else [],
+                               events=events.get(vid, []), summary=summary.get(vid, {"video": vid, **e}))
+    return out
+
+
+def _single_video(video: Path, telemetry: str | Path | None, cfg: Config) -> VideoSource:
+    """Give a video with its telemetry beside it (or given)."""
+    from .events import detect_events, event_row
+
+    if telemetry is None:
+        found = [video.with_suffix(s) for s in TELEMETRY_SUFFIXES if video.with_suffix(s).is_file()]
+        if not found:
+            raise LaneFinderError(f"no telemetry beside {video} ({video.stem}.parquet, .csv or .jsonl): run "
+                                  f"`lanefinder video {video} --telemetry {video.with_suffix('.parquet')}` first, "
+                                  "or give --telemetry")
+        telemetry = found[0]
+    v = VideoSource(video_id=video.stem, source=video, telemetry=[Path(telemetry).resolve()])
+    rows = v.rows()
+    fps = v.reader().fps
+    v.events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
+    n = len(rows)
+    lost = sum(r.get("state") == "lost" for r in rows)
+    widths = [r["width_m"] for r in rows if r.get("width_m") is not None]
+    v.summary = {"video": v.video_id, "input": str(video), "status": "done", "error": None, "frames": n,
+                 "pct_lane": round(100 * (n - lost) / n, 2) if n else None,
+                 "pct_lost": round(100 * lost / n, 2) if n else None,
+                 "mean_width_m": round(sum(widths) / len(widths), 4) if widths else None,
+                 "events": len(v.events)}
+    return v
+
+
+# -- pictures -------------------------------------------------------------------------------------
+def _jpeg(img: np.ndarray, width: int | None = None) -> bytes:
+    if width and img.shape[1] > width:
+        img = cv2.resize(img, (width, round(img.shape[0] * width / img.shape[1])), interpolation=cv2.INTER_AREA)
+    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, _JPEG_QUALITY])
+    if not ok:
+        raise LaneFinderError("cannot encode the image")
+    return buf.tobytes()
+
+
+def draw_row(frame: np.ndarray, row: dict | None) -> np.ndarray:
+    """Draw a telemetry row's lane on its frame: the lines at the TuSimple rows, the lane filled.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The frame, BGR (not changed).
+    row : dict or None
+        Its telemetry row (``h_samples``, ``left_x``, ``right_x``, ``state``, ``offset_m``, ...).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        A copy with the lane drawn and a one-line label.
+
+    Examples
+    --------
+    >>> img = np.zeros((720, 1280, 3), np.uint8)
+    >>> row = {"h_samples": [600, 700], "left_x": [400.0, 300.0], "right_x": [800.0, 900.0], "state": "tracking"}
+    >>> int(draw_row(img, row)[650, 600, 1]) > 0
+    True
+    """
+    out = frame.copy()
+    if not row:
+        return out
+    ys = row.get("h_samples") or []
+    lines = []
+    for key, color in (("left_x", (0, 0, 255)), ("right_x", (255, 80, 0))):
+        pts = [(x, y) for x, y in zip(row.get(key) or [], ys, strict=False) if x is not None and x >= 0]
+        lines.append(np.array(pts, np.float32).reshape(-1, 2))
+        if len(pts) >= 2:
+            cv2.polylines(out, [np.round(lines[-1]).astype(np.int32)], False, color, 4, cv2.LINE_AA)
+    left, right = lines
+    if len(left) >= 2 and len(right) >= 2:
+        poly = np.round(np.vstack([left, right[::-1]])).astype(np.int32)
+        fill = out.copy()
+        cv2.fillPoly(fill, [poly], (0, 200, 0))
+        out = cv2.addWeighted(fill, 0.3, out, 0.7, 0)
+    label = f"{row.get('state', '')}  offset {_fmt(row.get('offset_m'), '+.2f')} m  width {_fmt(row.get('width_m'))} m"
+    cv2.putText(out, label, (20, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (0, 0, 0), 5, cv2.LINE_AA)
+    cv2.putText(out, label, (20, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (255, 255, 255), 2, cv2.LINE_AA)
+    return out
+
+
+def _clean(obj: Any) -> Any:
+    """Give ``obj`` with NaN and infinities as None (JSON has neither)."""
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def _fmt(v: Any, spec: str = ".2f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+# -- the config form ------------------------------------------------------------------------------
+def config_form(cfg: Config) -> list[dict]:
+    """Describe the tunable fields of the inspector's form, from the config's schema.
+
+    Parameters
+    ----------
+    cfg : Config
+        Gives the current values.
+
+    Returns
+    -------
+    list of dict
+        One per field of :data:`TUNABLE_SECTIONS` (nested sections flattened, ``a.b.c``):
+        ``key``, ``type`` (``number``, ``integer``, ``boolean`` or ``choice``), ``value``,
+        ``min``, ``max``, ``choices`` and ``help``.  Tuple-valued fields (colours) are left out.
+
+    Examples
+    --------
+    >>> form = config_form(Config())
+    >>> [f for f in form if f["key"] == "threshold.ridge.rel_contrast"][0]["type"]
+    'number'
+    """
+    out: list[dict] = []
+    for section in TUNABLE_SECTIONS:
+        _fields(getattr(cfg, section), section, out)
+    return out
+
+
+def _fields(model: BaseModel, prefix: str, out: list[dict]) -> None:
+    import typing
+
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        key = f"{prefix}.{name}"
+        if isinstance(value, BaseModel):
+            _fields(value, key, out)
+            continue
+        lo = hi = None
+        for m in info.metadata:
+            lo = getattr(m, "ge", None) if getattr(m, "ge", None) is not None else (getattr(m, "gt", None)
+                                                                                    if lo is None else lo)
+            hi = getattr(m, "le", None) if getattr(m, "le", None) is not None else (getattr(m, "lt", None)
+                                                                                    if hi is None else hi)
+        ann = info.annotation
+        entry = {"key": key, "value": value, "min": lo, "max": hi, "choices": None, "help": info.description or ""}
+        if typing.get_origin(ann) is typing.Literal:
+            entry.update(type="choice", choices=list(typing.get_args(ann)))
+        elif ann is bool:
+            entry["type"] = "boolean"
+        elif ann is int:
+            entry["type"] = "integer"
+        elif ann is float:
+            entry["type"] = "number"
+        else:
+            continue
+        out.append(entry)
+
+
+def _merged(base: Config, changes: dict[str, Any], src: list | None) -> Config:
+    """Give the base config with the form's changes (``a.b.c`` keys) and the trapezoid applied."""
+    data = base.model_dump(mode="json")
+    for key, value in changes.items():
+        parts = key.split(".")
+        if parts[0] not in TUNABLE_SECTIONS:
+            raise LaneFinderError(f"{key}: only {', '.join(TUNABLE_SECTIONS)} can be changed here")
+        node = data
+        for p in parts[:-1]:
+            if not isinstance(node.get(p), dict):
+                raise LaneFinderError(f"{key}: no such setting")
+            node = node[p]
+        if parts[-1] not in node:
+            raise LaneFinderError(f"{key}: no such setting")
+        node[parts[-1]] = value
+    if src is not None:
+        data["birdseye"]["src"] = src
+    return config_from_dict(data, "the form")
+
+
+# -- the app --------------------------------------------------------------------------------------
+class _Inspect(BaseModel):
+    config: dict[str, Any] = {}
+    src: list[list[float]] | None = None
+
+
+def create_app(review: Review):
+    """Build the web app (FastAPI) for a review.
+
+    Parameters
+    ----------
+    review : Review
+        What to serve.
+
+    Returns
+    -------
+    fastapi.FastAPI
+        The app; run it with uvicorn (see :func:`serve`).
+
+    Examples
+    --------
+    >>> import tempfile, shutil
+    >>> from fastapi.testclient import TestClient
+    >>> from lanefinder.videojob import process_video
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = shutil.copy("data/clips/harder_challenge_0-4s.mp4", d / "h.mp4")
+    >>> _ = process_video(d / "h.mp4", None, telemetry=d / "h.csv", progress=False, max_frames=10)
+    >>> client = TestClient(create_app(Review(d / "h.mp4")))
+    >>> client.get("/api/videos").json()[0]["video"], client.get("/files/../etc/passwd").status_code
+    ('h', 404)
+    """
+    from fastapi import FastAPI, HTTPException, Request
+    from fastapi.responses import FileResponse, JSONResponse, Response
+
+    app = FastAPI(title="lanefinder review", docs_url=None, redoc_url=None, openapi_url=None)
+
+    @app.middleware("http")
+    async def bounded_bodies(request: Request, call_next):
+        size = request.headers.get("content-length")
+        if size is not None and (not size.isdigit() or int(size) > MAX_BODY_BYTES):
+            return JSONResponse({"detail": f"request body over {MAX_BODY_BYTES} bytes"}, status_code=413)
+        return await call_next(request)
+
+    @app.exception_handler(LaneFinderError)
+    async def lanefinder_error(_request: Request, exc: LaneFinderError):
+        return JSONResponse({"detail": str(exc)}, status_code=422)
+
+    def video(video_id: str) -> VideoSource:
+        try:
+            return review.video(video_id)
+        except KeyError:
+            raise HTTPException(404, f"no video {video_id!r}") from None
+
+    def frame_index(v: VideoSource, n: int) -> int:
+        count = v.reader().frames
+        if not 0 <= n < count:
+            raise HTTPException(404, f"frame {n} is out of range 0..{count - 1}")
+        return n
+
+    @app.get("/")
+    def index():
+        return FileResponse(_STATIC / "index.html", media_type="text/html")
+
+    @app.get("/static/{name}")
+    def static(name: str):
+        if name not in _STATIC_FILES:
+            raise HTTPException(404, "not found")
+        return FileResponse(_STATIC / name, media_type=_STATIC_FILES[name])
+
+    @app.get("/vendor/plotly.min.js")
+    def plotly_js():
+        import plotly
+
+        return FileResponse(Path(plotly.__file__).parent / "package_data" / "plotly.min.js",
+                            media_type="text/javascript")
+
+    @app.get("/api/info")
+    def info():
+        return {"mode": review.mode, "root": review.root.name, "videos": len(review.videos),
+                "config": json.loads(review.config.model_dump_json()), "form": config_form(review.config),
+                "config_path": str(review.config_path) if review.config_path else None}
+
+    @app.get("/api/videos")
+    def videos():
+        rows = []
+        for v in review.videos.values():
+            s = dict(v.summary)
+            s["events"] = len(v.events)
+            s["video"] = v.video_id
+            s["source_available"] = v.source is not None
+            rows.append(s)
+        return _clean(rows)
+
+    @app.get("/api/videos/{video_id}")
+    def video_info(video_id: str):
+        v = video(video_id)
+        rows = v.rows()
+        r = v.reader()
+        series = {k: [row.get(k) for row in rows] for k in _SERIES}
+        series["frame"] = [row["frame"] for row in rows]
+        return _clean({"video": v.video_id, "frames": r.frames, "fps": r.fps, "width": r.size[0], "height": r.size[1],
+                       "series": series, "events": v.events, "summary": v.summary,
+                       "src": review.config.birdseye.src, "reference_size": review.config.birdseye.reference_size})
+
+    @app.get("/api/videos/{video_id}/frames/{n}.jpg")
+    def frame(video_id: str, n: int, overlay: bool = True, width: int = 960):
+        v = video(video_id)
+        n = frame_index(v, n)
+        img = v.reader().get(n)
+        if overlay:
+            img = draw_row(img, v.row_at(n))
+        return Response(_jpeg(img, max(160, min(width, 3840))), media_type="image/jpeg")
+
+    @app.post("/api/videos/{video_id}/frames/{n}/inspect")
+    def inspect(video_id: str, n: int, body: _Inspect):
+        from .pipeline import LaneFinder
+        from .stages import inspect_frame
+
+        v = video(video_id)
+        n = frame_index(v, n)
+        t0 = time.perf_counter()
+        cfg = _merged(review.config, body.config, body.src)
+        img = v.reader().get(n)
+        images, result = inspect_frame(img, LaneFinder(cfg))
+        encoded = {k: "data:image/jpeg;base64," + base64.b64encode(_jpeg(im, 800)).decode() for k, im in images.items()}
+        return _clean({"ms": round((time.perf_counter() - t0) * 1000, 1), "images": encoded,
+                       "result": {"state": result.state, "offset_m": result.offset_m, "width_m": result.width_m,
+                                  "radius_m": result.radius_m, "left_conf": result.left.confidence,
+                                  "right_conf": result.right.confidence, "checks": list(result.checks)},
+                       "src": cfg.birdseye.src, "reference_size": cfg.birdseye.reference_size})
+
+    @app.post("/api/config/save")
+    def save(body: _Inspect):
+        cfg = _merged(review.config, body.config, body.src)
+        path = review.save_config(cfg)
+        return {"path": str(path), "name": path.name}
+
+    @app.get("/files/{rel:path}")
+    def files(rel: str):
+        try:
+            return FileResponse(review.safe_path(rel))
+        except (FileNotFoundError, OSError, ValueError):
+            raise HTTPException(404, "not found") from None
+
+    @app.exception_handler(ValidationError)
+    async def bad_body(_request: Request, exc: ValidationError):
+        return JSONResponse({"detail": str(exc).splitlines()[0]}, status_code=422)
+
+    return app
+
+
+def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print) -> None:
+    r"""Serve a review until Ctrl-C.
+
+    Parameters
+    ----------
+    review : Review
+        What to serve.
+    host : str
+        The address to bind (127.0.0.1 by default: this machine only).
+    port : int
+        The port (0: any free port).
+    echo : callable
+        Where the address (and a warning for a non-local host) is printed.
+
+    Raises
+    ------
+    LaneFinderError
+        When the address cannot be bound.
+
+    Examples
+    --------
+    >>> import tempfile, shutil
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = shutil.copy("data/clips/harder_challenge_0-4s.mp4", d / "h.mp4")
+    >>> _ = (d / "h.csv").write_text("frame,time_s,state\n0,0.0,lost\n")
+    >>> serve(Review(d / "h.mp4"), port=-1)
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: cannot listen on 127.0.0.1:-1: ...
+    """
+    import socket
+
+    import uvicorn
+
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        echo(f"warning: serving on {host}: anyone who can reach this address can see the videos and frames")
+    try:
+        sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+    except (OSError, OverflowError) as e:
+        raise LaneFinderError(f"cannot listen on {host}:{port}: {getattr(e, 'strerror', None) or e}") from None
+    shown = sock.getsockname()[1]
+    echo(f"lanefinder review of {review.root} ({review.mode}, {len(review.videos)} videos): "
+         f"http://{'[' + host + ']' if ':' in host else host}:{shown}/  (Ctrl-C to stop)")
+    config = uvicorn.Config(create_app(review), log_level="warning")
+    uvicorn.Server(config).run(sockets=[sock])
+
+
+def load_review(path: str | Path, config_path: str | Path | None = None,
+                telemetry: str | Path | None = None) -> Review:
+    """Open a review with the config from a file (or the defaults).
+
+    Parameters
+    ----------
+    path : str or Path
+        A batch folder or a video.
+    config_path : str or Path, optional
+        A config file.
+    telemetry : str or Path, optional
+        The video's telemetry.
+
+    Returns
+    -------
+    Review
+        Ready to serve.
+
+    Examples
+    --------
+    >>> load_review("no/such/folder")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: not found: no/such/folder
+    """
+    cfg = load_config(config_path) if config_path else Config()
+    return Review(path, cfg, config_path, telemetry)

@@ -1,0 +1,230 @@
+"""lanefinder review: the API (TestClient) and the page in a real browser (Playwright, system Chromium)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import CLIPS, ROOT
+from lanefinder import Config, load_config
+from lanefinder.review import MAX_BODY_BYTES, Review, create_app
+
+CHALLENGE = CLIPS / "challenge_3-7s.mp4"
+HARDER = CLIPS / "harder_challenge_0-4s.mp4"
+CHROMIUM = os.environ.get("LANEFINDER_CHROMIUM", "/usr/bin/chromium")
+SHOTS = ROOT / "output"
+
+
+@pytest.fixture(scope="module")
+def fleet_dir(tmp_path_factory):
+    from lanefinder.batch import run_batch
+
+    d = tmp_path_factory.mktemp("review")
+    (d / "in").mkdir()
+    shutil.copy(CHALLENGE, d / "in" / "challenge.mp4")
+    shutil.copy(HARDER, d / "in" / "harder.mp4")
+    (d / "in" / "broken.mp4").write_bytes(b"not a video" * 100)
+    run_batch([d / "in"], d / "out", workers=1, progress=False)
+    return d / "out"
+
+
+@pytest.fixture()
+def client(fleet_dir):
+    from fastapi.testclient import TestClient
+
+    return TestClient(create_app(Review(fleet_dir)))
+
+
+def test_api_lists_the_fleet_and_serves_frames(client):
+    videos = {v["video"]: v for v in client.get("/api/videos").json()}
+    assert set(videos) == {"challenge", "harder", "broken"}
+    assert videos["broken"]["status"] == "failed" and videos["harder"]["frames"] == 100
+    info = client.get("/api/videos/challenge").json()
+    assert info["frames"] == 120 and len(info["series"]["offset_m"]) == 120 and info["events"]
+    r = client.get("/api/videos/harder/frames/50.jpg")
+    assert r.status_code == 200 and r.headers["content-type"] == "image/jpeg" and r.content[:2] == b"\xff\xd8"
+    r = client.post("/api/videos/harder/frames/50/inspect", json={"config": {"threshold.ridge.min_contrast": 30}})
+    assert r.status_code == 200 and set(r.json()["images"]) >= {"2_binary", "5_windows", "6_final"}
+
+
+@pytest.mark.parametrize(("url", "status", "message"), [
+    ("/api/videos/harder/frames/100.jpg", 404, "frame 100 is out of range 0..99"),
+    ("/api/videos/harder/frames/-1.jpg", 404, "out of range"),
+    ("/api/videos/harder/frames/abc.jpg", 422, ""),
+    ("/api/videos/nope/frames/0.jpg", 404, "no video 'nope'"),
+    ("/files/../manifest.json", 404, ""),
+    ("/files/%2e%2e/%2e%2e/etc/passwd", 404, ""),
+    ("/files//etc/passwd", 404, ""),
+    ("/files/telemetry/../../out/summary.csv", 404, ""),
+    ("/static/../review.py", 404, ""),
+])
+def test_api_refuses_what_lies_outside_and_bad_indices(client, url, status, message):
+    r = client.get(url)
+    assert r.status_code == status, r.text
+    if message:
+        assert message in r.json()["detail"]
+
+
+def test_api_serves_files_under_the_folder_but_no_symlink_out(client, fleet_dir):
+    assert client.get("/files/summary.csv").text.startswith("video,input,status")
+    link = fleet_dir / "escape.txt"
+    link.symlink_to("/etc/hostname")
+    try:
+        assert client.get("/files/escape.txt").status_code == 404
+    finally:
+        link.unlink()
+
+
+def test_api_refuses_bad_config_values_and_large_bodies(client):
+    url = "/api/videos/harder/frames/0/inspect"
+    r = client.post(url, json={"config": {"threshold.ridge.min_contrast": -5}})
+    assert r.status_code == 422 and "threshold.ridge.min_contrast" in r.json()["detail"]
+    r = client.post(url, json={"config": {"camera.model": "x"}})
+    assert r.status_code == 422 and "only threshold, search, tracking, render" in r.json()["detail"]
+    r = client.post(url, json={"config": {"search.no_such_key": 1}})
+    assert r.status_code == 422 and "no such setting" in r.json()["detail"]
+    r = client.post(url, json={"src": [[0, 0], [1, 1]]})
+    assert r.status_code == 422
+    r = client.post(url, content=b"{" + b" " * (MAX_BODY_BYTES + 10) + b"}", headers={"content-type": "application/json"})
+    assert r.status_code == 413
+
+
+def test_saved_config_is_atomic_and_never_over_an_input(fleet_dir):
+    from fastapi.testclient import TestClient
+
+    cfg_in = fleet_dir / "review-config.toml"
+    cfg_in.write_text("[search]\nn_windows = 10\n")
+    try:
+        client = TestClient(create_app(Review(fleet_dir, load_config(cfg_in), cfg_in)))
+        r = client.post("/api/config/save", json={"config": {"threshold.ridge.min_contrast": 25}})
+        saved = Path(r.json()["path"])
+        assert saved.name == "review-config-2.toml" and cfg_in.read_text() == "[search]\nn_windows = 10\n"
+        cfg = load_config(saved)
+        assert cfg.search.n_windows == 10 and cfg.threshold.ridge.min_contrast == 25
+        assert not [p for p in fleet_dir.iterdir() if p.name.startswith(".")]
+    finally:
+        cfg_in.unlink()
+        (fleet_dir / "review-config-2.toml").unlink(missing_ok=True)
+
+
+def test_a_video_with_its_telemetry_and_bad_paths(tmp_path):
+    from lanefinder.errors import LaneFinderError
+    from lanefinder.videojob import process_video
+
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    with pytest.raises(LaneFinderError, match="no telemetry beside"):
+        Review(tmp_path / "h.mp4")
+    process_video(tmp_path / "h.mp4", None, telemetry=tmp_path / "h.parquet", progress=False)
+    assert Review(tmp_path / "h.mp4").videos["h"].summary["frames"] == 100
+    with pytest.raises(LaneFinderError, match="not a lanefinder batch folder"):
+        Review(CLIPS)
+
+
+# -- in a real browser ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def server(fleet_dir):
+    import uvicorn
+
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    srv = uvicorn.Server(uvicorn.Config(create_app(Review(fleet_dir)), log_level="warning"))
+    thread = threading.Thread(target=srv.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    deadline = time.time() + 20
+    while not srv.started and time.time() < deadline:
+        time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}"
+    srv.should_exit = True
+    thread.join(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    if not Path(CHROMIUM).is_file():
+        pytest.skip(f"no Chromium at {CHROMIUM} (Debian's chromium package; .ci/run installs it)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        page = browser.new_page(viewport={"width": 1500, "height": 1400})
+        page.set_default_timeout(20_000)
+        yield page
+        browser.close()
+
+
+@pytest.mark.slow
+def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
+    SHOTS.mkdir(exist_ok=True)
+    page.goto(server + "/")
+    page.wait_for_selector("body[data-ready='1']")
+    # Fleet view: three rows, sortable.
+    assert page.locator("#fleet tbody tr").count() == 3
+    page.click("#fleet th[data-key='frames']")
+    assert page.locator("#fleet tbody tr").first.get_attribute("data-video") == "harder"
+    page.screenshot(path=str(SHOTS / "review_fleet.png"))
+    # Open the challenge clip.
+    page.click("#fleet tbody tr[data-video='challenge']")
+    page.wait_for_function("document.getElementById('status').dataset.seq >= 1")
+    assert page.locator("#slider").input_value() == "0"
+    # Seek by clicking the plot, about 60% along the time axis.
+    box = page.locator("#plots .xy .nsewdrag").first.bounding_box()
+    page.mouse.click(box["x"] + 0.6 * box["width"], box["y"] + box["height"] / 2)
+    page.wait_for_function("Number(document.getElementById('slider').value) > 50")
+    assert 60 <= int(page.locator("#slider").input_value()) <= 85
+    # Jump to the first event.
+    first = page.locator("#events li").first
+    target = first.get_attribute("data-frame")
+    first.click()
+    page.wait_for_function(f"document.getElementById('slider').value === '{target}'")
+    assert page.locator("#frame").get_attribute("src").endswith(f"/frames/{target}.jpg")
+    page.wait_for_function(f"document.getElementById('status').textContent.startsWith('frame {target} ')")
+    page.screenshot(path=str(SHOTS / "review_video.png"))
+    # Change a threshold: the binary image changes.
+    before = page.locator("#stage-2_binary").get_attribute("src")
+    seq = int(page.locator("#status").get_attribute("data-seq"))
+    page.fill("input[name='threshold.ridge.min_contrast']", "60")
+    page.dispatch_event("input[name='threshold.ridge.min_contrast']", "change")
+    page.wait_for_function(f"Number(document.getElementById('status').dataset.seq) > {seq}")
+    assert page.locator("#stage-2_binary").get_attribute("src") != before
+    ms = float(page.locator("#status").get_attribute("data-ms"))
+    # Drag the top-left corner of the trapezoid 40 px to the left.
+    seq = int(page.locator("#status").get_attribute("data-seq"))
+    page.locator("#corner-0").scroll_into_view_if_needed()
+    corner = page.locator("#corner-0").bounding_box()
+    x, y = corner["x"] + corner["width"] / 2, corner["y"] + corner["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x - 20, y, steps=5)
+    page.mouse.move(x - 40, y, steps=5)
+    page.mouse.up()
+    page.wait_for_function(f"Number(document.getElementById('status').dataset.seq) > {seq}")
+    cx = float(page.locator("#corner-0").get_attribute("cx"))
+    assert cx < Config().birdseye.src[0][0] - 10
+    page.locator("#stages").screenshot(path=str(SHOTS / "review_inspector.png"))
+    # Save, and run a video with the saved config.
+    page.click("#save")
+    page.wait_for_function("document.getElementById('status').dataset.saved")
+    saved = Path(page.locator("#status").get_attribute("data-saved"))
+    try:
+        cfg = load_config(saved)
+        assert cfg.threshold.ridge.min_contrast == 60 and abs(cfg.birdseye.src[0][0] - cx) < 0.2
+        out = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(HARDER), "-c", str(saved),
+                              "--telemetry", str(tmp_path / "t.csv"), "--end", "1", "--quiet"],
+                             capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stderr
+        assert "frames: 25" in out.stdout
+    finally:
+        saved.unlink()
+    page.screenshot(path=str(SHOTS / "review_page.png"), full_page=True)
+    print(f"live re-render: {ms} ms on the server")
