@@ -13,9 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from conftest import CLIPS, ROOT
 from lanefinder import Config, load_config
 from lanefinder.review import MAX_BODY_BYTES, Review, create_app
+
+from conftest import CLIPS, ROOT
 
 CHALLENGE = CLIPS / "challenge_3-7s.mp4"
 HARDER = CLIPS / "harder_challenge_0-4s.mp4"
@@ -93,7 +94,8 @@ def test_api_refuses_bad_config_values_and_large_bodies(client):
     assert r.status_code == 422 and "no such setting" in r.json()["detail"]
     r = client.post(url, json={"src": [[0, 0], [1, 1]]})
     assert r.status_code == 422
-    r = client.post(url, content=b"{" + b" " * (MAX_BODY_BYTES + 10) + b"}", headers={"content-type": "application/json"})
+    big = b"{" + b" " * (MAX_BODY_BYTES + 10) + b"}"
+    r = client.post(url, content=big, headers={"content-type": "application/json"})
     assert r.status_code == 413
 
 

@@ -253,24 +253,28 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
               help="x264 preset (default from config: superfast).")
 @click.option("--crf", type=click.IntRange(0, 51), help="x264 quality, lower is better (default from config: 23).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--events", "events_path", type=click.Path(),
+              help="Lane events (departures, lane changes, lost stretches): .csv, .jsonl or .parquet.")
 def video(src: str, output: str | None, config_path: str | None, start_s: float, end_s: float | None,
           telemetry: str | None, debug: bool, sheet: str | None, preset: str | None, crf: int | None,
-          quiet: bool) -> None:
-    """Find the lane in every frame of the video SRC; write an annotated H.264 MP4 and/or telemetry."""
+          quiet: bool, events_path: str | None) -> None:
+    """Find the lane in every frame of the video SRC; write an annotated H.264 MP4, telemetry and/or events."""
     from .videojob import process_video
 
     cfg = _config(config_path)
     if preset or crf is not None:
         v = cfg.video.model_copy(update={k: val for k, val in (("preset", preset), ("crf", crf)) if val is not None})
         cfg = cfg.model_copy(update={"video": v})
-    if output is None and telemetry is None:
-        raise LaneFinderError("give -o OUT.mp4 for an annotated video, --telemetry FILE for the numbers, or both")
+    if output is None and telemetry is None and events_path is None:
+        raise LaneFinderError("give -o OUT.mp4 for an annotated video, --telemetry FILE for the numbers, "
+                              "--events FILE for the lane events, or several")
     if output is not None and Path(output).suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output must be an .mp4 file: {output}")
     summary = process_video(src, output, cfg, start_s=start_s, end_s=end_s, telemetry=telemetry, debug=debug,
-                            contact_sheet_path=sheet, progress=not quiet)
+                            contact_sheet_path=sheet, progress=not quiet, events=events_path)
     for line in summary.lines():
-        click.echo(line)
+        if line:
+            click.echo(line)
     if sheet:
         click.echo(f"contact sheet: {sheet}")
     if summary.interrupted:
@@ -441,6 +445,21 @@ def batch(inputs: tuple[str, ...], outdir: str, config_path: str | None, workers
         _fail(f"{report.failed} of {report.videos} videos failed: their reasons are in "
               f"{outdir.rstrip('/')}/summary.csv")
         sys.exit(2)
+
+
+# -- review ------------------------------------------------------------------------------
+@main.command()
+@click.argument("path", type=click.Path())
+@click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="Port (0: any free one).")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to bind; anything but this machine prints a warning.")
+@click.option("-c", "--config", "config_path", type=click.Path(), help="Config the inspector starts from.")
+@click.option("--telemetry", type=click.Path(), help="The video's telemetry (default: beside it, same name).")
+def review(path: str, port: int, host: str, config_path: str | None, telemetry: str | None) -> None:
+    """Serve a local page to browse PATH (a batch folder, or a video with its telemetry) and tune live."""
+    from .review import load_review, serve
+
+    serve(load_review(path, config_path, telemetry), host=host, port=port, echo=click.echo)
 
 
 def _setup_inputs(paths: list[Path], camera_path: str | None) -> list[Path]:

@@ -24,6 +24,7 @@ __all__ = [
     "CameraConfig",
     "ColorConfig",
     "Config",
+    "EventsConfig",
     "FarConfig",
     "FitConfig",
     "LimitsConfig",
@@ -667,6 +668,69 @@ class BatchConfig(_Section):
     warmup_s: Annotated[float, Field(ge=0, le=600)] = 4.0
 
 
+class EventsConfig(_Section):
+    """Lane events found in the telemetry: departure warnings, lane changes, lost stretches.
+
+    See :mod:`lanefinder.events` for the rules.  Distances are from a wheel's outer edge to a
+    line's centre, at the bird's-eye bottom row, where the offset is measured.
+
+    Attributes
+    ----------
+    car_width_m : float
+        Width of the car over its wheels, m (the camera on its centre line).
+    warning_margin_m : float
+        A departure warning starts when a wheel is this close to the line or closer, m (0: at
+        the line; negative: only once that far over it).
+    release_m : float
+        The warning ends once the wheel is ``warning_margin_m + release_m`` inside again, m.
+    min_warning_s : float
+        Shorter warnings are dropped, s.
+    speed_window_s : float
+        The lateral speed is the least-squares slope of the lateral position over this window,
+        centred on each frame, s.
+    min_speed_mps : float
+        Below this speed towards the line a departure has no time to line crossing, m/s.
+    max_gap_s : float
+        Longest stretch without a measured lane (lost, held or missing rows) within one warning
+        or lost stretch, s.
+    lane_change_min_jump : float
+        Least change of the offset at a switch of lane, as a fraction of the lane width.
+    lane_change_min_offset_m : float
+        Least offset on each side of a switch (from +|x| to -|x| or back), m.
+    lane_change_max_gap_s : float
+        Longest stretch without a measured lane that a switch may span, s.
+    lane_change_speed_mps : float
+        A lane change lasts while the car moves towards the new lane faster than this, m/s.
+    lane_change_max_s : float
+        Farthest a lane change's start or end is looked for from its switch, s.
+    lane_change_flip_s : float
+        A switch undone within this time is the tracker wavering, not a change, s.
+    min_lost_frames : int
+        Frames a lost stretch must cover.
+
+    Examples
+    --------
+    >>> e = EventsConfig()
+    >>> e.car_width_m, e.warning_margin_m, e.min_lost_frames
+    (1.8, 0.0, 1)
+    """
+
+    car_width_m: Annotated[float, Field(ge=0.5, le=4.0)] = 1.8
+    warning_margin_m: Annotated[float, Field(ge=-1.0, le=2.0)] = 0.0
+    release_m: Annotated[float, Field(ge=0, le=1.0)] = 0.05
+    min_warning_s: Annotated[float, Field(ge=0, le=60)] = 0.0
+    speed_window_s: Annotated[float, Field(gt=0, le=5)] = 0.4
+    min_speed_mps: Annotated[float, Field(ge=0, le=5)] = 0.05
+    max_gap_s: Annotated[float, Field(ge=0, le=60)] = 0.5
+    lane_change_min_jump: Annotated[float, Field(gt=0, le=1.5)] = 0.35
+    lane_change_min_offset_m: Annotated[float, Field(ge=0, le=5)] = 0.3
+    lane_change_max_gap_s: Annotated[float, Field(ge=0, le=60)] = 3.0
+    lane_change_speed_mps: Annotated[float, Field(gt=0, le=5)] = 0.2
+    lane_change_max_s: Annotated[float, Field(gt=0, le=60)] = 8.0
+    lane_change_flip_s: Annotated[float, Field(ge=0, le=60)] = 1.0
+    min_lost_frames: Annotated[int, Field(ge=1, le=1_000_000)] = 1
+
+
 class Config(_Section):
     """All tunables of lanefinder, one validated section per stage.
 
@@ -685,6 +749,7 @@ class Config(_Section):
     video : VideoConfig
     limits : LimitsConfig
     batch : BatchConfig
+    events : EventsConfig
 
     Examples
     --------
@@ -704,6 +769,7 @@ class Config(_Section):
     video: VideoConfig = VideoConfig()
     limits: LimitsConfig = LimitsConfig()
     batch: BatchConfig = BatchConfig()
+    events: EventsConfig = EventsConfig()
 
 
 def _format_error(e: ValidationError, source: str) -> str:

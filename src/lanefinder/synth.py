@@ -12,6 +12,13 @@ consistently from frame to frame.
 Ground truth per frame is taken where the pipeline measures: at the bird's-eye bottom row,
 ``z_near`` metres ahead (see docs/conventions.md): curvature, radius, offset, width, and
 each line's x in the distorted frame at the TuSimple rows.
+
+The road has two lanes: the car's first lane, between the yellow line (left) and a dashed
+white line, and a lane to its right, up to a solid white line.  A scenario's manoeuvres move the
+car across the road (and turn it, as a car must to move sideways); the truth always refers to
+the *ego lane*, the lane that holds the camera, so after a change to the right lane its lines are
+the dashed and the solid white lines.  ``events_gt.jsonl`` holds the true lane events, found
+with :func:`lanefinder.events.detect_events` on the exact per-frame geometry.
 """
 
 from __future__ import annotations
@@ -44,6 +51,7 @@ __all__ = [
     "Renderer",
     "Scenario",
     "level_to_camera",
+    "manoeuvre_shift",
     "write_sequence",
 ]
 
@@ -138,11 +146,18 @@ class Scenario:
         The hard conditions.
     description : str
         One line for ``lanefinder synth --list``.
+    manoeuvres : tuple of (float, float, float)
+        Moves across the road, each ``(start_s, duration_s, lateral_shift_m)``: the car's offset
+        from its first lane's centre changes by ``lateral_shift_m`` (positive: to the right) over
+        ``duration_s`` from ``start_s``, along a raised cosine, and the car heads along its path
+        (see :func:`manoeuvre_shift`).  Added to ``offset_m``.
 
     Examples
     --------
     >>> SCENARIOS["sharp-curve"].speed_mps
     12.0
+    >>> SCENARIOS["lane-change"].manoeuvres[0]
+    (2.0, 3.5, 3.7)
     """
 
     name: str
@@ -155,6 +170,46 @@ class Scenario:
     period_s: float = 8.0
     conditions: Conditions = field(default_factory=Conditions)
     description: str = ""
+    manoeuvres: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def duration_s(self) -> float:
+        """Give the time the manoeuvres need, with 1.5 s after the last, s (0 without manoeuvres)."""
+        return max((t0 + d + 1.5 for t0, d, _ in self.manoeuvres), default=0.0)
+
+
+def manoeuvre_shift(manoeuvres: tuple[tuple[float, float, float], ...], t: float) -> tuple[float, float]:
+    """Give the lateral shift of the car from its manoeuvres at a time, and its rate.
+
+    Each manoeuvre ``(start_s, duration_s, shift_m)`` adds shift_m * (1 - cos(pi * u)) / 2,
+    u = (t - start_s) / duration_s clipped to 0..1.
+
+    Parameters
+    ----------
+    manoeuvres : tuple of (float, float, float)
+        ``(start_s, duration_s, lateral_shift_m)`` each.
+    t : float
+        Time, s.
+
+    Returns
+    -------
+    tuple of float
+        The shift, m (positive: to the right), and its rate, m/s.
+
+    Examples
+    --------
+    >>> [round(v, 3) for v in manoeuvre_shift(((1.0, 2.0, 3.7),), 2.0)]
+    [1.85, 2.906]
+    >>> manoeuvre_shift(((1.0, 2.0, 3.7),), 5.0)
+    (3.7, 0.0)
+    """
+    shift = rate = 0.0
+    for t0, dur, amount in manoeuvres:
+        u = min(max((t - t0) / dur, 0.0), 1.0)
+        shift += amount * (1 - math.cos(math.pi * u)) / 2
+        if 0.0 < u < 1.0:
+            rate += amount * math.pi / (2 * dur) * math.sin(math.pi * u)
+    return shift, rate
 
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
@@ -172,6 +227,16 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
              description="double yellow centre line"),
     Scenario("sharp-curve", speed_mps=12.0, curvature=(1 / 90, 1 / 400), curvature_rate=(0.0, 2e-4),
              offset_m=(0.0, 0.2), width_m=(3.5, 0.1), period_s=6.0, description="sharp curves, R 70-130 m"),
+    # Lane events (events_gt.jsonl): wheels 1.8 m apart; with a 3.7 m lane a wheel reaches a line
+    # at an offset of 0.95 m.
+    Scenario("lane-change", offset_m=(0.0, 0.03), heading=(0.0, 0.002), curvature=(1 / 1000, 1 / 4000),
+             width_m=(3.7, 0.03), manoeuvres=((2.0, 3.5, 3.7), (8.5, 3.5, -3.7)),
+             description="a change to the right lane and back, over 3.5 s each, on a gentle curve (340 frames)"),
+    Scenario("drift", offset_m=(0.0, 0.03), heading=(0.0, 0.002), curvature=(-1 / 1500, 0.0), width_m=(3.7, 0.03),
+             manoeuvres=((0.5, 2.5, -1.15), (4.0, 2.0, 1.15), (6.0, 2.0, 0.7), (8.5, 2.0, -0.7),
+                         (10.5, 2.5, 1.2), (14.0, 2.0, -1.2), (16.0, 2.0, -0.7), (18.5, 2.0, 0.7)),
+             description="drifts 0.18/0.30 m over the left/right line and back; near misses 0.23-0.28 m inside "
+                         "(550 frames)"),
 ]}
 
 
@@ -348,11 +413,50 @@ class Renderer:
         def val(base_amp: tuple[float, float], phase: float = 0.0) -> float:
             return base_amp[0] + base_amp[1] * math.sin(ph + phase)
 
-        return {
+        g = {
             "offset": val(sc.offset_m), "heading": val(sc.heading, 1.3), "curvature": val(sc.curvature, 0.7),
             "curvature_rate": val(sc.curvature_rate, 2.1), "width": val(sc.width_m, 0.4),
             "travelled": sc.speed_mps * t,
         }
+        if sc.manoeuvres:
+            # Moving sideways at v the car heads v/speed off the lane, so the lane turns the other way.
+            shift, rate = manoeuvre_shift(sc.manoeuvres, t)
+            g["offset"] += shift
+            g["heading"] -= rate / sc.speed_mps
+        return g
+
+    @staticmethod
+    def ego_lane(g: dict) -> int:
+        """Give the lane that holds the camera: 0 the first lane, 1 the lane to its right.
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry`.
+
+        Returns
+        -------
+        int
+            The lane's index.
+        """
+        return 1 if g["offset"] >= g["width"] / 2 else 0
+
+    @classmethod
+    def ego_geometry(cls, g: dict) -> dict:
+        """Give the geometry relative to the ego lane (:meth:`ego_lane`): its offset is the car's from that lane.
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry` (relative to the first lane).
+
+        Returns
+        -------
+        dict
+            The same keys; ``g`` itself when the car is in its first lane.
+        """
+        k = cls.ego_lane(g)
+        return g if k == 0 else {**g, "offset": g["offset"] - k * g["width"]}
 
     @staticmethod
     def centre(g: dict, z: np.ndarray | float) -> np.ndarray | float:
@@ -387,8 +491,10 @@ class Renderer:
         Returns
         -------
         FrameTruth
-            Curvature, radius, offset and width at ``z_near``; line x at the TuSimple rows.
+            Curvature, radius, offset and width at ``z_near``; line x at the TuSimple rows; all of
+            the ego lane (the lane that holds the camera).
         """
+        g = self.ego_geometry(g)
         z0 = self.z_near
         d1 = g["heading"] + g["curvature"] * z0 + g["curvature_rate"] / 2 * z0**2
         d2 = g["curvature"] + g["curvature_rate"] * z0
@@ -601,7 +707,10 @@ class Renderer:
 def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,
                    camera: CameraModel | None = None, mount: Mount | None = None, fps: int = 25,
                    progress: bool = False) -> Path:
-    """Write a synthetic sequence: video.mp4, gt.jsonl, camera.json, config.toml and scenario.json.
+    """Write a synthetic sequence: video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json.
+
+    ``events_gt.jsonl`` holds the true lane events: :func:`lanefinder.events.detect_events`
+    with the config's ``events`` settings over the exact offset and width of every frame.
 
     Parameters
     ----------
@@ -637,7 +746,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     >>> import tempfile
     >>> out = write_sequence("straight", 2, tempfile.mkdtemp())  # doctest: +SKIP
     >>> sorted(p.name for p in out.iterdir())  # doctest: +SKIP
-    ['camera.json', 'config.toml', 'gt.jsonl', 'scenario.json', 'video.mp4']
+    ['camera.json', 'config.toml', 'events_gt.jsonl', 'gt.jsonl', 'scenario.json', 'video.mp4']
     >>> write_sequence("moon", 2, tempfile.mkdtemp())
     Traceback (most recent call last):
     ...
@@ -645,6 +754,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     """
     from .camera import udacity_camera
     from .config import config_from_dict, dump_config
+    from .events import detect_events, write_events
     from .video import VideoInfo, VideoSink
 
     if isinstance(scenario, str):
@@ -657,15 +767,15 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     cam = camera or udacity_camera()
     source = Path(cam.source) if cam.source and Path(cam.source).is_file() else None
     inputs = [source] if source else []
-    check_outputs([out / n for n in ("video.mp4", "gt.jsonl", "camera.json", "config.toml", "scenario.json")],
-                  inputs)  # before any rendering
+    check_outputs([out / n for n in ("video.mp4", "gt.jsonl", "events_gt.jsonl", "camera.json", "config.toml",
+                                     "scenario.json")], inputs)  # before any rendering
     renderer = Renderer(cam, mount or Mount(), scenario, seed)
     w, h = cam.image_size
     info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
-    rows = []
+    rows, truth_rows = [], []
     from tqdm import tqdm
 
-    # All five files are put in place together, only when all are written.
+    # All six files are put in place together, only when all are written.
     with OutputSet(inputs=inputs) as outs:
         sink = VideoSink(out / "video.mp4", info, preset="veryfast", crf=14, outputs=outs)
         try:
@@ -673,6 +783,8 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
                                    desc=scenario.name, unit="frame"):
                 sink.write(img)
                 rows.append(json.dumps(truth.to_json()))
+                truth_rows.append({"frame": truth.frame, "time_s": truth.time_s, "state": "tracking",
+                                   "offset_m": truth.offset_m, "width_m": truth.width_m})
             sink.close()
         except BaseException:
             sink.discard()
@@ -682,7 +794,11 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
                           outputs=outs)
         cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
         atomic_write_text(out / "config.toml", dump_config(cfg), outputs=outs)
-        meta = {"scenario": asdict(scenario), "seed": seed, "frames": n_frames, "fps": fps,
+        write_events(out / "events_gt.jsonl", detect_events(truth_rows, fps, cfg.events), outputs=outs)
+        described = asdict(scenario)
+        if not scenario.manoeuvres:
+            del described["manoeuvres"]  # scenario.json as before manoeuvres existed
+        meta = {"scenario": described, "seed": seed, "frames": n_frames, "fps": fps,
                 "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
         atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n", outputs=outs)
     return out

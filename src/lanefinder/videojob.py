@@ -23,6 +23,7 @@ import numpy as np
 from .birdseye import BirdsEye
 from .config import Config
 from .errors import LaneFinderError
+from .events import EVENT_KINDS, EVENT_SUFFIXES, detect_events, write_events
 from .io import OutputSet, encode_image, signals_held
 from .lane import LOST, REDETECT, LaneResult
 from .limits import check_memory
@@ -122,6 +123,10 @@ class VideoSummary:
         The telemetry file.
     padded : tuple of int or None
         The size the video was encoded at when the frames' odd size was padded by a pixel.
+    events : dict of str to int or None
+        Lane events found, by kind, when they were asked for.
+    events_path : str or None
+        The events file.
 
     Examples
     --------
@@ -144,6 +149,8 @@ class VideoSummary:
     output: str | None
     telemetry: str | None
     padded: tuple[int, int] | None = None
+    events: dict[str, int] | None = None
+    events_path: str | None = None
 
     def lines(self) -> list[str]:
         """Return the end-of-run summary as printed lines.
@@ -160,6 +167,8 @@ class VideoSummary:
             f"re-detections: {self.redetections}, frames marked lost: {self.lost}, damaged packets: {self.damaged}",
             ", ".join(f"{k}: {v}" for k, v in (("video", self.output), ("telemetry", self.telemetry)) if v),
         ]
+        if self.events is not None:
+            out.append("events: " + ", ".join(f"{k} {v}" for k, v in self.events.items()) + f" -> {self.events_path}")
         if self.truncated:
             out.append("the input ended early (truncated file): the output holds the frames that could be read")
         if self.interrupted:
@@ -194,10 +203,12 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
 
 
 def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
-                end_s: float | None) -> None:
+                end_s: float | None, events: str | Path | None, collecting: bool = False) -> None:
     """Refuse bad names and impossible spans before any work."""
-    if dst is None and telemetry is None:
-        raise LaneFinderError("nothing to write: give an output video, telemetry, or both")
+    if dst is None and telemetry is None and events is None and not collecting:
+        raise LaneFinderError("nothing to write: give an output video, telemetry, events, or several")
+    if events is not None and Path(events).suffix.lower() not in EVENT_SUFFIXES:
+        raise LaneFinderError(f"events file must end in .csv, .jsonl or .parquet: {events}")
     if dst is not None and dst.suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output video must be an .mp4 file: {dst}")
     if telemetry is not None and Path(telemetry).suffix.lower() not in TELEMETRY_SUFFIXES:
@@ -284,8 +295,11 @@ class _Run:
     """The processing loop of one video: each frame found, drawn, written and counted."""
 
     def __init__(self, finder: LaneFinder, be: BirdsEye, expected: int, sheet_frames: int, debug: bool,
-                 on_result: Callable[[int, LaneResult], None] | None):
+                 on_result: Callable[[int, LaneResult], None] | None, events_fps: float | None = None):
         self.finder, self.be, self.expected, self.debug, self.on_result = finder, be, expected, debug, on_result
+        # What the lane events need of each frame (a few numbers: about 20 MB an hour of 25 fps video).
+        self.events_fps = events_fps
+        self.event_rows: list[dict] = []
         self.sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist())
         self.thumbs: list[tuple[float, np.ndarray]] = []
         self.counts = RunCounts()
@@ -314,8 +328,19 @@ class _Run:
             if out is not None:
                 threads.out_q.put(out)
             self.counts.add(result)
+            if self.events_fps is not None:
+                self.event_rows.append({"frame": f.index, "time_s": f.time_s, "state": result.state,
+                                        "offset_m": result.offset_m, "width_m": result.width_m,
+                                        "misses": result.misses})
         if self.on_result:
             self.on_result(f.index, result)
+
+    def events(self, path: str | Path, cfg: Config, outs: OutputSet) -> dict[str, int]:
+        """Find the lane events of the frames done and write them into the output set; count them by kind."""
+        assert self.events_fps is not None
+        found = detect_events(self.event_rows, self.events_fps, cfg.events)
+        write_events(path, found, outputs=outs)
+        return {k: sum(e.kind == k for e in found) for k in EVENT_KINDS}
 
     def loop(self, threads: _Threads, writer: TelemetryWriter | None, encoding: bool, progress: bool,
              name: str) -> bool:
@@ -354,6 +379,7 @@ def process_video(
     progress: bool = True,
     max_frames: int | None = None,
     on_result: Callable[[int, LaneResult], None] | None = None,
+    events: str | Path | None = None,
 ) -> VideoSummary:
     """Find the lane in every frame of a video; write the annotated video and the telemetry.
 
@@ -367,7 +393,7 @@ def process_video(
         The input video (anything PyAV decodes).
     dst : str or Path or None
         The annotated H.264 MP4 to write; None writes no video (then nothing is drawn or
-        encoded, and ``telemetry`` must be given).
+        encoded, and ``telemetry`` or ``on_result`` must be given).
     config : Config, optional
         The configuration (defaults when omitted).
     start_s, end_s : float
@@ -386,6 +412,9 @@ def process_video(
         Stop after this many frames.
     on_result : callable, optional
         ``on_result(frame_index, result)``, called for every frame, in order.
+    events : str or Path, optional
+        Lane events file (``.csv``, ``.jsonl`` or ``.parquet``; see :mod:`lanefinder.events`),
+        written with the other outputs.
 
     Returns
     -------
@@ -408,7 +437,7 @@ def process_video(
     """
     cfg = config or Config()
     src, dst = Path(src), (Path(dst) if dst is not None else None)
-    _check_args(dst, telemetry, contact_sheet_path, start_s, end_s)
+    _check_args(dst, telemetry, contact_sheet_path, start_s, end_s, events, collecting=on_result is not None)
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
@@ -417,13 +446,15 @@ def process_video(
     check_memory(cfg, info.size, frames_held=4 * _QUEUE_FRAMES)
     expected = _expected_frames(info, start_s, end_s, max_frames)
     decode_stats = DecodeStats()
-    run = _Run(finder, be, expected, sheet_frames, debug, on_result)
+    run = _Run(finder, be, expected, sheet_frames, debug, on_result, float(info.fps) if events is not None else None)
     # Every output is written beside its destination and put in place together, only at the end.
     with OutputSet(inputs=[src]) as outs:
         sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads, outputs=outs) \
             if dst is not None else None
         writer = TelemetryWriter(telemetry, outputs=outs) if telemetry is not None else None
         sheet_tmp = outs.add(contact_sheet_path) if contact_sheet_path else None
+        if events is not None:
+            outs.check(events)  # refuses an input or another output's name before any work
         threads = _Threads(frames(src, start_s, end_s, cfg.video.threads, decode_stats), sink, max_frames)
         t0 = time.perf_counter()
         try:
@@ -449,6 +480,7 @@ def process_video(
         except BaseException:
             _stop(sink, writer)
             raise
+        found = run.events(events, cfg, outs) if events is not None else None
         if sheet_tmp is not None and run.thumbs:
             buf = encode_image(contact_sheet_path, contact_sheet(run.thumbs))
             try:
@@ -464,4 +496,5 @@ def process_video(
         both_found=c.both_found, redetections=c.redetections, lost=c.lost, damaged=decode_stats.damaged,
         truncated=ended_early, interrupted=interrupted, output=str(dst) if dst is not None else None,
         telemetry=str(telemetry) if telemetry else None, padded=sink.size if sink is not None and sink.padded else None,
+        events=found, events_path=str(events) if events is not None else None,
     )
