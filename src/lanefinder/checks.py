@@ -155,8 +155,12 @@ def check_width(left_m: np.ndarray, right_m: np.ndarray, cfg: TrackingConfig) ->
     return None if cfg.min_width_m <= lane_width_m(left_m, right_m) <= cfg.max_width_m else "width"
 
 
-def check_offset(left_m: np.ndarray, right_m: np.ndarray, cfg: TrackingConfig) -> str | None:
+def check_offset(left_m: np.ndarray, right_m: np.ndarray, cfg: TrackingConfig, holding: bool = False) -> str | None:
     """Fail a lane that does not hold the car: x = 0 inside it, within ``max_offset_m`` of its centre.
+
+    A lane that is being held (tracked, not re-detected) only needs the car inside it, so a
+    car that drifts to a line, or over it before a lane change, keeps its lane; a new lane
+    must also have the car within ``max_offset_m`` of its centre.
 
     Parameters
     ----------
@@ -164,6 +168,8 @@ def check_offset(left_m: np.ndarray, right_m: np.ndarray, cfg: TrackingConfig) -
         Metre fits of the lane's lines.
     cfg : TrackingConfig
         Holds ``max_offset_m``.
+    holding : bool
+        The lane continues a tracked one.
 
     Returns
     -------
@@ -177,8 +183,10 @@ def check_offset(left_m: np.ndarray, right_m: np.ndarray, cfg: TrackingConfig) -
     'offset'
     >>> check_offset(np.array([0, 0, -1.8]), np.array([0, 0, 1.9]), TrackingConfig()) is None
     True
+    >>> check_offset(np.array([0, 0, -0.3]), np.array([0, 0, 3.4]), TrackingConfig(), holding=True) is None
+    True
     """
-    ok = left_m[2] < 0 < right_m[2] and abs(left_m[2] + right_m[2]) / 2 <= cfg.max_offset_m
+    ok = left_m[2] < 0 < right_m[2] and (holding or abs(left_m[2] + right_m[2]) / 2 <= cfg.max_offset_m)
     return None if ok else "offset"
 
 
@@ -267,7 +275,7 @@ def check_width_change(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m:
 
 
 def pair_problems(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m: float | None, lookahead_m: float,
-                  cfg: TrackingConfig) -> list[str]:
+                  cfg: TrackingConfig, holding: bool = False) -> list[str]:
     """Apply the lane checks to a measured pair and list the reasons it fails.
 
     Width, the car inside the lane, parallel lines, matching curvatures and, while tracking,
@@ -283,6 +291,8 @@ def pair_problems(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m: floa
         The far end of the view, metres ahead of its bottom row.
     cfg : TrackingConfig
         The limits.
+    holding : bool
+        The pair continues a tracked lane (see :func:`check_offset`).
 
     Returns
     -------
@@ -295,7 +305,7 @@ def pair_problems(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m: floa
     >>> pair_problems(np.array([0, 0, -1.8]), np.array([0, 0, -0.3]), None, 30.0, TrackingConfig())
     ['width', 'offset']
     """
-    found = (check_width(left_m, right_m, cfg), check_offset(left_m, right_m, cfg),
+    found = (check_width(left_m, right_m, cfg), check_offset(left_m, right_m, cfg, holding),
              check_parallel(left_m, right_m, lookahead_m, cfg), check_curvature(left_m, right_m, cfg),
              check_width_change(left_m, right_m, tracked_width_m, cfg))
     return [reason for reason in found if reason]

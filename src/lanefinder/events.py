@@ -26,9 +26,8 @@ Kinds of event:
     max(distance, 0) / speed, None when the car is not moving towards the line faster than
     ``min_speed_mps``; ``min_distance_m`` the closest the wheel came (negative: over the line).
     A departure that overlaps a lane change is part of it and is not reported.  The tracker
-    shows a lane only while the car is within ``tracking.max_offset_m`` of its centre (0.9 m by
-    default), and with a 1.8 m car a wheel reaches a line of a 3.7 m lane only at 0.95 m: with
-    that default a departure ends the lane (a ``lost`` stretch) before it can be measured.
+    holds a lane while the car is inside it (``tracking.max_offset_m`` applies only to a lane
+    found blind), so a wheel can be seen reaching and crossing the line.
 
 ``lane-change-left`` / ``lane-change-right``
     The ego lane switches: between two measured frames at most ``lane_change_max_gap_s`` apart

@@ -649,7 +649,7 @@ def create_app(review: Review):
         rows = []
         for v in review.videos.values():
             s = dict(v.summary)
-            s["events"] = len(v.events)
+            s["events"] = len(v.events) if s.get("status", "done") == "done" else None
             s["video"] = v.video_id
             s["source_available"] = v.source is not None
             rows.append(s)

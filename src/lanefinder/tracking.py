@@ -329,7 +329,8 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
     """Rule 2: a pair that fails the lane checks keeps one line; both confidences drop."""
     c = rules.cfg
     lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
-    problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c)
+    holding = not track.needs_blind_search(c)
+    problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c, holding=holding)
     if not problems:
         return conf
     reasons.extend(problems)
@@ -432,7 +433,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         w_meas = lane_width_m(*fits)
         width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
     track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m)
-    if reason := check_offset(*fits, c):
+    if reason := check_offset(*fits, c, holding=not track.needs_blind_search(c)):
         # The lane these lines make would not hold the car: not this lane.
         reasons.append(reason)
         return _miss(track, reasons, conf_t, measured, blind, rules)
