@@ -197,3 +197,32 @@ def test_bad_batch_inputs_are_one_line(tmp_path):
     out = subprocess.run([*CLI, "batch", str(HARDER), "-o", str(tmp_path / "file")],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 2 and "the output folder is a file" in out.stderr
+
+
+def _cut_mkv(src: Path, dst: Path, fraction: float) -> None:
+    """Remux to Matroska (which states the duration up front) and cut the file short."""
+    import av
+
+    whole = dst.with_suffix(".whole.mkv")
+    with av.open(str(src)) as i, av.open(str(whole), "w") as o:
+        s_in = i.streams.video[0]
+        s_out = o.add_stream_from_template(s_in)
+        for pkt in i.demux(s_in):
+            if pkt.dts is not None:
+                pkt.stream = s_out
+                o.mux(pkt)
+    data = whole.read_bytes()
+    dst.write_bytes(data[: int(len(data) * fraction)])
+    whole.unlink()
+
+
+def test_a_video_cut_short_gives_the_frames_that_could_be_read(tmp_path):
+    (tmp_path / "in").mkdir()
+    _cut_mkv(PROJECT, tmp_path / "in" / "cut.mkv", 0.5)
+    cfg = Config.model_validate({"batch": {"segment_s": 2.0, "warmup_s": 1.0}})
+    report = run_batch([tmp_path / "in"], tmp_path / "out", cfg, workers=1, progress=False)
+    assert (report.done, report.failed) == (1, 0)
+    summary = pq.read_table(tmp_path / "out" / "summary.parquet").to_pylist()[0]
+    assert summary["truncated"] and 60 < summary["frames"] < 200
+    frames = [r["frame"] for r in rows_of(tmp_path / "out", "cut")]
+    assert frames == sorted(set(frames)) and frames[0] == 0

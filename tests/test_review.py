@@ -230,3 +230,33 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
         saved.unlink()
     page.screenshot(path=str(SHOTS / "review_page.png"), full_page=True)
     print(f"live re-render: {ms} ms on the server")
+
+
+def test_a_video_review_serves_no_sibling_and_answers_only_local_names(tmp_path):
+    from fastapi.testclient import TestClient
+
+    from lanefinder.videojob import process_video
+
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    (tmp_path / "secret.txt").write_text("not for the page")
+    process_video(tmp_path / "h.mp4", None, telemetry=tmp_path / "h.csv", progress=False, max_frames=5)
+    client = TestClient(create_app(Review(tmp_path / "h.mp4")))
+    assert client.get("/files/secret.txt").status_code == 404
+    assert client.get("/files/h.csv").status_code == 200
+    assert client.get("/api/videos", headers={"host": "evil.example.com"}).status_code == 400
+
+    def chunks():
+        for _ in range(10):
+            yield b" " * (MAX_BODY_BYTES // 4)
+
+    r = client.post("/api/config/save", content=chunks(), headers={"content-type": "application/json"})
+    assert r.status_code == 413 and not list(tmp_path.glob("review-config*"))
+
+
+def test_telemetry_without_frame_numbers_is_one_line(tmp_path):
+    from lanefinder.errors import LaneFinderError
+
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    (tmp_path / "h.csv").write_text("time_s,state\n0.0,lost\n")
+    with pytest.raises(LaneFinderError, match="row 1 has no frame number"):
+        Review(tmp_path / "h.mp4")

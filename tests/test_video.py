@@ -154,3 +154,26 @@ def test_interrupted_run_leaves_a_playable_video_and_matching_telemetry(tmp_path
     assert 0 < n < 250
     assert len(read_telemetry(tele)) == n
     assert not list(tmp_path.glob(".*"))  # no temporary files left behind
+
+
+def test_variable_frame_rate_gives_increasing_frame_numbers(tmp_path):
+    from fractions import Fraction
+
+    from lanefinder.events import detect_events
+    from lanefinder.video import frames
+
+    path = tmp_path / "vfr.mp4"
+    with av.open(str(path), "w") as o:
+        s = o.add_stream("libx264", rate=25, options={"bframes": "0"})
+        s.width, s.height, s.pix_fmt = 64, 48, "yuv420p"
+        s.codec_context.time_base = s.time_base = Fraction(1, 1000)
+        for i, t_ms in enumerate([0, 40, 70, 75, 120, 200, 210, 240, 280, 330]):
+            f = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 10 * i, np.uint8), format="rgb24")
+            f.pts, f.time_base = t_ms, Fraction(1, 1000)
+            o.mux(s.encode(f))
+        o.mux(s.encode(None))
+    got = list(frames(path))
+    idx = [f.index for f in got]
+    assert len(idx) == 10 and idx == sorted(set(idx))
+    rows = [{"frame": f.index, "time_s": f.time_s, "state": "tracking", "offset_m": 0.0, "width_m": 3.7} for f in got]
+    assert detect_events(rows, 25.0) == []

@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import fsspec
 import pyarrow as pa
@@ -38,7 +39,7 @@ import pyarrow.parquet as pq
 
 from . import __version__
 from .config import Config, dump_config
-from .errors import LaneFinderError
+from .errors import LaneFinderError, NoFramesError
 from .tables import telemetry_schema
 
 __all__ = [
@@ -64,7 +65,7 @@ _MANIFEST = "manifest.json"
 _HASH_BLOCK = 1 << 20
 _HASH_BLOCKS = 16
 # Columns a task sends back per frame (enough for events and the summary).
-_EVENT_COLUMNS = ("frame", "time_s", "state", "offset_m", "width_m")
+_EVENT_COLUMNS = ("frame", "time_s", "state", "offset_m", "width_m", "misses")
 
 
 @dataclass(frozen=True)
@@ -210,6 +211,16 @@ class BatchReport:
 
 
 # -- inputs ------------------------------------------------------------------------------------
+def _fs(url: str):
+    """Give the fsspec file system and path of a URL or local path; a bad or unsupported URL is one line."""
+    try:
+        return fsspec.core.url_to_fs(url)
+    except ImportError as e:
+        raise LaneFinderError(f"{url}: this kind of URL needs a package that is not installed ({e})") from None
+    except (ValueError, TypeError, OSError) as e:
+        raise LaneFinderError(f"{url}: not a usable path or URL ({e})") from None
+
+
 def _is_url(s: str) -> bool:
     return bool(re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*://", s))
 
@@ -255,7 +266,7 @@ def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
     found: list[str] = []
     for raw in inputs:
         s = str(raw)
-        fs, path = fsspec.core.url_to_fs(s)
+        fs, path = _fs(s)
         try:
             isdir = fs.isdir(path)
             exists = isdir or fs.isfile(path)
@@ -331,7 +342,7 @@ def content_hash(url: str) -> str:
     32
     """
     try:
-        fs, path = fsspec.core.url_to_fs(url)
+        fs, path = _fs(url)
         size = fs.size(path)
         h = hashlib.blake2b(str(size).encode(), digest_size=16)
         with fs.open(path, "rb") as f:
@@ -348,7 +359,7 @@ def content_hash(url: str) -> str:
 
 
 def config_hash(cfg: Config) -> str:
-    """Hash a configuration (and the lanefinder version, whose results it would give).
+    """Hash a configuration, the camera file it names, and the lanefinder version.
 
     Parameters
     ----------
@@ -365,8 +376,11 @@ def config_hash(cfg: Config) -> str:
     >>> config_hash(Config()) == config_hash(Config())
     True
     """
-    text = f"{__version__}\n{dump_config(cfg, 'json')}"
-    return hashlib.blake2b(text.encode(), digest_size=8).hexdigest()
+    h = hashlib.blake2b(f"{__version__}\n{dump_config(cfg, 'json')}".encode(), digest_size=8)
+    camera = Path(cfg.camera.model)
+    if cfg.camera.model not in ("udacity", "none") and camera.is_file():
+        h.update(camera.read_bytes())  # a camera calibrated again is a changed config
+    return h.hexdigest()
 
 
 def plan_segments(video_id: str, url: str, duration_s: float, fps: float, segment_s: float,
@@ -446,7 +460,7 @@ def _local_copy(url: str):
     os.close(fd)
     try:
         try:
-            fs, path = fsspec.core.url_to_fs(url)
+            fs, path = _fs(url)
             fs.get_file(path, tmp)
         except (OSError, ValueError) as e:
             raise LaneFinderError(f"cannot read {url}: {e}") from None
@@ -500,21 +514,26 @@ def run_segment(seg: Segment, cfg: Config, outdir: str, write_video: bool = Fals
 
     t0 = time.perf_counter()
     try:
-        fs, root = fsspec.core.url_to_fs(outdir)
+        fs, root = _fs(outdir)
         with _local_copy(seg.url) as src, tempfile.TemporaryDirectory(prefix="lanefinder-seg-") as tmp:
             tele = Path(tmp, "t.parquet")
             video = Path(tmp, f"{seg.video_id}.mp4") if write_video else None
-            s = process_video(src, video, cfg, start_s=seg.run_from_s, end_s=seg.end_s, telemetry=tele,
-                              progress=False)
+            try:
+                s = process_video(src, video, cfg, start_s=seg.run_from_s, end_s=seg.end_s, telemetry=tele,
+                                  progress=False)
+            except NoFramesError as e:  # past the end of a file cut short: nothing here, not a failure
+                return {"video_id": seg.video_id, "index": seg.index, "frames": 0, "empty": str(e),
+                        "columns": {k: [] for k in _EVENT_COLUMNS}, "both_found": 0, "damaged": 0,
+                        "truncated": True, "seconds": time.perf_counter() - t0}
             table = pq.read_table(tele)
             keep = pc.greater_equal(table["time_s"], seg.start_s - 0.5 / seg.fps) if seg.index else None
             if keep is not None:
                 table = table.filter(keep)
             part = Path(tmp, "part.parquet")
             pq.write_table(table, part, compression="zstd")
-            _put(fs, str(part), posixpath.join(_partition(root, seg.video_id), f"part-{seg.index:04d}.parquet"))
+            _put(fs, str(part), posixpath.join(_staging(root, seg.video_id), f"part-{seg.index:04d}.parquet"))
             if video is not None:
-                _put(fs, str(video), posixpath.join(root, "videos", f"{seg.video_id}.mp4"))
+                _put(fs, str(video), _video_path(root, seg.video_id))
         cols = table.select(list(_EVENT_COLUMNS)).to_pydict()
         both = pc.sum(pc.and_(table["left_found"], table["right_found"])).as_py() or 0
         return {"video_id": seg.video_id, "index": seg.index, "frames": table.num_rows, "columns": cols,
@@ -705,87 +724,132 @@ def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config |
     >>> r.done, r.failed, names
     (1, 0, ['events.parquet', 'manifest.json', 'summary.csv', 'summary.parquet', 'telemetry'])
     """
-    from tqdm import tqdm
-
     cfg = config or Config()
     say = echo or (lambda _s: None)
     t0 = time.perf_counter()
     keys = find_inputs(inputs)
     out = str(outdir)
-    fs, root = fsspec.core.url_to_fs(out)
+    fs, root = _fs(out)
     _check_outdir(fs, root, out, keys)
     entries = _load_manifest(fs, root)
-    ids = _video_ids(keys, {k: e.video_id for k, e in entries.items()})
-    chash = config_hash(cfg)
+    fleet = _Fleet(fs, root, out, cfg, entries, _video_ids(keys, {k: e.video_id for k, e in entries.items()}),
+                   write_video)
     in_process = any(k.startswith("memory://") for k in [*keys, out])
-    seg_s = 0.0 if write_video else cfg.batch.segment_s
-    counts = {"done": 0, "skipped": 0, "redone_failed": 0, "redone_changed": 0, "failed": 0, "frames": 0}
     with _client(workers, scheduler, in_process) as client:
         if (link := _dashboard(client)) is not None:
             say(f"Dask dashboard: {link}")
-        probes = dict(zip(keys, client.gather(client.map(_probe, keys, pure=False)), strict=True))
-        plan: dict[str, list[Segment]] = {}
-        why: dict[str, str] = {}
-        for k in keys:
-            p, old = probes[k], entries.get(k)
-            if "error" in p:
-                entries[k] = VideoEntry(url=k, video_id=ids[k], content_hash="", config_hash=chash, status="failed",
-                                        error=p["error"])
-                counts["failed"] += 1
-                if old is not None:
-                    counts["redone_failed" if old.status == "failed" else "redone_changed"] += 1
-                continue
-            if old and old.status == "done" and old.content_hash == p["hash"] and old.config_hash == chash \
-                    and _parts_exist(fs, root, old.video_id):
-                counts["skipped"] += 1
-                continue
-            why[k] = "" if old is None else ("failed" if old.status == "failed" else "changed")
-            _remove_partition(fs, root, ids[k])
-            plan[k] = plan_segments(ids[k], k, p["duration_s"], p["fps"], seg_s, cfg.batch.warmup_s)
-        _save_manifest(fs, root, entries, chash)
-        total = sum(max(1, probes[k]["frames"]) for k in plan)
-        bar = tqdm(total=total, unit="frame", disable=None if progress else True, dynamic_ncols=True, desc="fleet")
-        futures = {client.submit(run_segment, s, cfg, out, write_video, pure=False): s
-                   for k in plan for s in plan[k]}
-        done_segments: dict[str, list[dict]] = {k: [] for k in plan}
-        by_id = {ids[k]: k for k in plan}
-        from distributed import as_completed
+        probes = _gather_each(client, keys, [client.submit(_probe, k, pure=False) for k in keys],
+                              lambda k, e: {"error": f"the worker failed while probing {k}: {e}"})
+        plan = fleet.plan(keys, probes)
+        fleet.run(client, plan, probes, progress)
+    _fleet_tables(fs, root, entries)
+    return BatchReport(videos=len(keys), outdir=out, seconds=time.perf_counter() - t0, dashboard=link, **fleet.counts)
 
+
+def _gather_each(client, keys: Sequence, futures: Sequence, on_error: Callable[[Any, BaseException], dict]) -> dict:
+    """Give each future's result by key; a future that raised (a worker that died) gives ``on_error``'s."""
+    out = {}
+    for k, fut in zip(keys, futures, strict=True):
+        try:
+            out[k] = fut.result()
+        except Exception as e:
+            out[k] = on_error(k, e)
+    return out
+
+
+class _Fleet:
+    """The client's side of one batch run: what to do with each input, and what came back."""
+
+    def __init__(self, fs, root: str, out: str, cfg: Config, entries: dict[str, VideoEntry], ids: dict[str, str],
+                 write_video: bool):
+        self.fs, self.root, self.out, self.cfg, self.entries, self.ids = fs, root, out, cfg, entries, ids
+        self.write_video = write_video
+        self.chash = config_hash(cfg)
+        self.counts = {"done": 0, "skipped": 0, "redone_failed": 0, "redone_changed": 0, "failed": 0, "frames": 0}
+        self.why: dict[str, str] = {}
+
+    def _redone(self, key: str) -> None:
+        if self.why.get(key):
+            self.counts[f"redone_{self.why[key]}"] += 1
+
+    def _unchanged(self, old: VideoEntry | None, probe: dict) -> bool:
+        return bool(old and old.status == "done" and old.content_hash == probe["hash"]
+                    and old.config_hash == self.chash and _parts_exist(self.fs, self.root, old.video_id)
+                    and (not self.write_video or self.fs.exists(_video_path(self.root, old.video_id))))
+
+    def plan(self, keys: Sequence[str], probes: dict[str, dict]) -> dict[str, list[Segment]]:
+        """Skip what is done and unchanged, record what cannot be read, and cut the rest into segments."""
+        plan: dict[str, list[Segment]] = {}
+        seg_s = 0.0 if self.write_video else self.cfg.batch.segment_s
+        for k in keys:
+            p, old = probes[k], self.entries.get(k)
+            self.why[k] = "" if old is None else ("failed" if old.status == "failed" else "changed")
+            if "error" in p:
+                self._fail(k, p["error"], "")
+            elif self._unchanged(old, p):
+                self.counts["skipped"] += 1
+            else:
+                _remove(self.fs, _staging(self.root, self.ids[k]))  # left by a run that was killed
+                plan[k] = plan_segments(self.ids[k], k, p["duration_s"], p["fps"], seg_s, self.cfg.batch.warmup_s)
+        _save_manifest(self.fs, self.root, self.entries, self.chash)
+        return plan
+
+    def _fail(self, key: str, error: str, content_hash: str) -> None:
+        """Record a failed input; its rows from before (now stale) and any half-written ones go."""
+        vid = self.ids[key]
+        _remove(self.fs, _staging(self.root, vid))
+        _remove(self.fs, _partition(self.root, vid))
+        self.entries[key] = VideoEntry(url=key, video_id=vid, content_hash=content_hash, config_hash=self.chash,
+                                       status="failed", error=error)
+        self.counts["failed"] += 1
+        self._redone(key)
+
+    def run(self, client, plan: dict[str, list[Segment]], probes: dict[str, dict], progress: bool) -> None:
+        """Run the segments on the cluster; finish each video as its last segment comes back."""
+        from distributed import as_completed
+        from tqdm import tqdm
+
+        bar = tqdm(total=sum(max(1, probes[k]["frames"]) for k in plan), unit="frame",
+                   disable=None if progress else True, dynamic_ncols=True, desc="fleet")
+        futures = {client.submit(run_segment, s, self.cfg, self.out, self.write_video, pure=False): (k, s)
+                   for k in plan for s in plan[k]}
+        back: dict[str, list[dict]] = {k: [] for k in plan}
         try:
             for fut in as_completed(futures):
-                r = fut.result()
-                k = by_id[r["video_id"]]
-                done_segments[k].append(r)
+                k, seg = futures[fut]
+                try:
+                    r = fut.result()
+                except Exception as e:  # the worker died (out of memory, a decoder crash): this video fails
+                    r = {"video_id": seg.video_id, "index": seg.index, "error": f"the worker failed: {e}"}
+                back[k].append(r)
                 bar.update(r.get("frames", 0))
-                if len(done_segments[k]) < len(plan[k]):
-                    continue
-                entry = _finish(k, ids[k], probes[k], sorted(done_segments[k], key=lambda x: x["index"]), chash, cfg)
-                if entry.status == "failed":
-                    _remove_partition(fs, root, ids[k])
-                    counts["failed"] += 1
-                else:
-                    counts["done"] += 1
-                    counts["frames"] += entry.summary["frames"]
-                if why[k]:
-                    counts[f"redone_{why[k]}"] += 1
-                entries[k] = entry
-                _save_manifest(fs, root, entries, chash)
-                bar.set_postfix(failed=counts["failed"])
+                if len(back[k]) == len(plan[k]):
+                    self._finish(k, probes[k], sorted(back[k], key=lambda x: x["index"]))
+                    bar.set_postfix(failed=self.counts["failed"])
         finally:
             bar.close()
-    _fleet_tables(fs, root, {k: entries[k] for k in keys if k in entries})
-    return BatchReport(videos=len(keys), outdir=out, seconds=time.perf_counter() - t0, dashboard=link, **counts)
 
-
-def _finish(key: str, video_id: str, probe: dict, results: list[dict], chash: str, cfg: Config) -> VideoEntry:
-    """Give the manifest entry of a video whose segments are all back."""
-    errors = [r["error"] for r in results if "error" in r]
-    if errors:
-        return VideoEntry(url=key, video_id=video_id, content_hash=probe["hash"], config_hash=chash,
-                          status="failed", error=errors[0])
-    summary, events = _summarise(results, probe["fps"], cfg)
-    return VideoEntry(url=key, video_id=video_id, content_hash=probe["hash"], config_hash=chash, status="done",
-                      summary=summary, events=events)
+    def _finish(self, key: str, probe: dict, results: list[dict]) -> None:
+        """Put a video's rows in place and record it, or record why it failed."""
+        vid = self.ids[key]
+        errors = [r["error"] for r in results if "error" in r]
+        if not errors and all("empty" in r for r in results):
+            errors = [results[0]["empty"]]
+        try:
+            if errors:
+                raise LaneFinderError(errors[0])
+            summary, events = _summarise([r for r in results if "empty" not in r], probe["fps"], self.cfg)
+            _remove(self.fs, _partition(self.root, vid))
+            self.fs.mv(_staging(self.root, vid), _partition(self.root, vid), recursive=True)
+        except Exception as e:
+            self._fail(key, str(e) if isinstance(e, LaneFinderError) else f"{type(e).__name__}: {e}", probe["hash"])
+        else:
+            self.entries[key] = VideoEntry(url=key, video_id=vid, content_hash=probe["hash"], config_hash=self.chash,
+                                           status="done", summary=summary, events=events)
+            self.counts["done"] += 1
+            self.counts["frames"] += summary["frames"]
+            self._redone(key)
+        _save_manifest(self.fs, self.root, self.entries, self.chash)
 
 
 def _check_outdir(fs, root: str, out: str, keys: Iterable[str]) -> None:
@@ -808,15 +872,23 @@ def _partition(root: str, video_id: str) -> str:
     return posixpath.join(root, "telemetry", f"video={video_id}")
 
 
+def _staging(root: str, video_id: str) -> str:
+    """Where a video's parts are written until all are done (a hidden folder: datasets skip it)."""
+    return posixpath.join(root, "telemetry", f".video={video_id}.new")
+
+
+def _video_path(root: str, video_id: str) -> str:
+    return posixpath.join(root, "videos", f"{video_id}.mp4")
+
+
 def _parts_exist(fs, root: str, video_id: str) -> bool:
     with contextlib.suppress(OSError):
         return any(p.endswith(".parquet") for p in fs.ls(_partition(root, video_id), detail=False))
     return False
 
 
-def _remove_partition(fs, root: str, video_id: str) -> None:
-    """Drop a video's old rows before it is processed again (a re-run never duplicates rows)."""
-    path = _partition(root, video_id)
+def _remove(fs, path: str) -> None:
+    """Remove a folder of parts, if it is there."""
     with contextlib.suppress(FileNotFoundError):
         if fs.exists(path):
             fs.rm(path, recursive=True)

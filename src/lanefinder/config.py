@@ -879,7 +879,7 @@ def load_config(path: str | Path | None) -> Config:
     cfg = config_from_dict(data, str(p))
     if cfg.camera.model not in ("udacity", "none") and not Path(cfg.camera.model).is_absolute():
         # A camera file named in a config is relative to that config.
-        cam_path = (p.parent / cfg.camera.model)
+        cam_path = (p.parent / cfg.camera.model).resolve()  # absolute: a config saved elsewhere still finds it
         cfg = cfg.model_copy(update={"camera": CameraConfig(model=str(cam_path))})
     return cfg
 

@@ -1,6 +1,6 @@
 """Exceptions that the CLI turns into one-line messages."""
 
-__all__ = ["LaneFinderError"]
+__all__ = ["LaneFinderError", "NoFramesError"]
 
 
 class LaneFinderError(Exception):
@@ -13,4 +13,14 @@ class LaneFinderError(Exception):
     ... except LaneFinderError as e:
     ...     print(f"error: {e}")
     error: image not found: a.jpg
+    """
+
+
+class NoFramesError(LaneFinderError):
+    """No frame could be decoded from (a span of) a video.
+
+    Examples
+    --------
+    >>> isinstance(NoFramesError("no frames"), LaneFinderError)
+    True
     """

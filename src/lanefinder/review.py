@@ -32,11 +32,13 @@ from .errors import LaneFinderError
 from .io import atomic_write_text
 from .telemetry import TELEMETRY_SUFFIXES, read_telemetry
 
-__all__ = ["MAX_BODY_BYTES", "TUNABLE_SECTIONS", "FrameReader", "Review", "VideoSource", "config_form", "create_app",
-           "draw_row", "load_review", "serve"]
+__all__ = ["LOCAL_HOSTS", "MAX_BODY_BYTES", "TUNABLE_SECTIONS", "FrameReader", "Review", "VideoSource", "config_form",
+           "create_app", "draw_row", "load_review", "serve"]
 
 #: Largest request body accepted, bytes.
 MAX_BODY_BYTES = 64 * 1024
+#: Host names the server answers to by default (this machine; ``testserver`` is FastAPI's TestClient).
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1", "[::1]", "testserver")
 #: The config sections the inspector's form offers.
 TUNABLE_SECTIONS = ("threshold", "search", "tracking", "render")
 _STATIC = Path(__file__).with_name("review_static")
@@ -191,8 +193,10 @@ class VideoSource:
             rows: list[dict] = []
             for p in self.telemetry:
                 rows += read_telemetry(p)
-            for r in rows:
+            for i, r in enumerate(rows, 1):
                 r.pop("video", None)
+                if not isinstance(r.get("frame"), int) or isinstance(r.get("frame"), bool) or r["frame"] < 0:
+                    raise LaneFinderError(f"telemetry of {self.video_id}: row {i} has no frame number")
             self._rows = sorted(rows, key=lambda r: r["frame"])
             self._by_frame = {r["frame"]: r for r in self._rows}
         return self._rows
@@ -213,6 +217,33 @@ class VideoSource:
         self.rows()
         assert self._by_frame is not None
         return self._by_frame.get(frame)
+
+    def frame_count(self) -> int:
+        """Return the number of frames: the container's count, else one past the telemetry's last frame.
+
+        Returns
+        -------
+        int
+            Frames.
+        """
+        n = self.reader().frames if self.source is not None else 0
+        rows = self.rows()
+        return n if n > 0 else (rows[-1]["frame"] + 1 if rows else 0)
+
+    def fps(self) -> float:
+        """Return the frame rate: the container's, else from the telemetry's times.
+
+        Returns
+        -------
+        float
+            Frames per second (25 when nothing says).
+        """
+        if self.source is not None and self.reader().fps > 0:
+            return self.reader().fps
+        rows = [r for r in self.rows() if r.get("time_s") is not None]
+        if len(rows) >= 2 and rows[-1]["time_s"] > rows[0]["time_s"]:
+            return (rows[-1]["frame"] - rows[0]["frame"]) / (rows[-1]["time_s"] - rows[0]["time_s"])
+        return 25.0
 
     def reader(self) -> FrameReader:
         """Return the frame reader of the source video (opened once).
@@ -348,45 +379,60 @@ class Review:
         Raises
         ------
         FileNotFoundError
-            For an absolute path, ``..``, a symlink that leaves the root, or a missing file.
+            For an absolute path, ``..``, a symlink that leaves the root, a missing file, or (when
+            PATH is a video) any file but the video and its telemetry.
         """
         if not rel or rel.startswith(("/", "\\")) or "\x00" in rel or Path(rel).is_absolute():
             raise FileNotFoundError(rel)
         p = (self.root / rel).resolve()
         if not p.is_relative_to(self.root) or not p.is_file():
             raise FileNotFoundError(rel)
+        if self.mode == "video" and p not in self.inputs:  # PATH is the video: its siblings are not served
+            raise FileNotFoundError(rel)
         return p
 
 
 def _fleet_videos(root: Path) -> dict[str, VideoSource]:
     """Give the videos of a batch folder, from its manifest, summary and events."""
-    import pyarrow.parquet as pq
-
     manifest = root / "manifest.json"
     if not manifest.is_file():
         raise LaneFinderError(f"{root} is not a lanefinder batch folder (no manifest.json); "
                               "give a batch output folder or a video with its telemetry")
     try:
         entries = json.loads(manifest.read_text())["videos"]
-    except (ValueError, KeyError, OSError) as e:
+        if not isinstance(entries, dict) or not all(isinstance(e, dict) and isinstance(e.get("video_id"), str)
+                                                    for e in entries.values()):
+            raise ValueError("an entry has no video_id")
+    except (ValueError, KeyError, TypeError, OSError) as e:
         raise LaneFinderError(f"{manifest} cannot be read: {e}") from None
     events: dict[str, list[dict]] = {}
-    if (root / "events.parquet").is_file():
-        for e in pq.read_table(root / "events.parquet").to_pylist():
-            events.setdefault(e.pop("video"), []).append(e)
-    summary = {}
-    if (root / "summary.parquet").is_file():
-        summary = {r["video"]: r for r in pq.read_table(root / "summary.parquet").to_pylist()}
+    for e in _table_rows(root / "events.parquet"):
+        events.setdefault(e.pop("video", None), []).append(e)
+    summary = {r.get("video"): r for r in _table_rows(root / "summary.parquet")}
     out = {}
     for url, e in entries.items():
         vid = e["video_id"]
         part = root / "telemetry" / f"video={vid}"
         local = url[len("file://"):] if url.startswith("file://") else (None if "://" in url else url)
         src = Path(local) if local and Path(local).is_file() else None  # remote sources are not decoded here
+        row = summary.get(vid) or {"video": vid, "input": url, "status": e.get("status"), "error": e.get("error")}
         out[vid] = VideoSource(video_id=vid, source=src,
                                telemetry=sorted(part.glob("*.parquet")) if part.is_dir() else [],
-                               events=events.get(vid, []), summary=summary.get(vid, {"video": vid, **e}))
+                               events=events.get(vid, []), summary=row)
     return out
+
+
+def _table_rows(path: Path) -> list[dict]:
+    """Give the rows of a batch's Parquet table (none when it is not there)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if not path.is_file():
+        return []
+    try:
+        return pq.read_table(path).to_pylist()
+    except (OSError, pa.ArrowException) as e:
+        raise LaneFinderError(f"{path} cannot be read: {e}".splitlines()[0]) from None
 
 
 def _single_video(video: Path, telemetry: str | Path | None, cfg: Config) -> VideoSource:
@@ -563,18 +609,66 @@ def _merged(base: Config, changes: dict[str, Any], src: list | None) -> Config:
 
 
 # -- the app --------------------------------------------------------------------------------------
+class _BoundedBody:
+    """ASGI middleware: a request body over ``limit`` bytes gets a 413, whether it says its size or not.
+
+    The body (at most ``limit`` bytes) is read first, then handed to the app.
+    """
+
+    def __init__(self, app, limit: int):
+        self.app, self.limit = app, limit
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        size = dict(scope.get("headers") or []).get(b"content-length")
+        if size is not None and (not size.isdigit() or int(size) > self.limit):
+            await self._refuse(send)
+            return
+        body, more = b"", True
+        while more:
+            message = await receive()
+            if message["type"] != "http.request":  # the client went away
+                return
+            body += message.get("body", b"")
+            more = message.get("more_body", False)
+            if len(body) > self.limit:
+                await self._refuse(send)
+                return
+        sent = False
+
+        async def replay():
+            nonlocal sent
+            if sent:
+                return await receive()
+            sent = True
+            return {"type": "http.request", "body": body, "more_body": False}
+
+        await self.app(scope, replay, send)
+
+    async def _refuse(self, send) -> None:
+        body = json.dumps({"detail": f"request body over {self.limit} bytes"}).encode()
+        await send({"type": "http.response.start", "status": 413,
+                    "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+        await send({"type": "http.response.body", "body": body})
+
+
 class _Inspect(BaseModel):
     config: dict[str, Any] = {}
     src: list[list[float]] | None = None
 
 
-def create_app(review: Review):
+def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
     """Build the web app (FastAPI) for a review.
 
     Parameters
     ----------
     review : Review
         What to serve.
+    allowed_hosts : tuple of str, optional
+        The host names requests may be addressed to (default :data:`LOCAL_HOSTS`; ``("*",)``
+        for any).
 
     Returns
     -------
@@ -595,15 +689,13 @@ def create_app(review: Review):
     """
     from fastapi import FastAPI, HTTPException, Request
     from fastapi.responses import FileResponse, JSONResponse, Response
+    from starlette.middleware.trustedhost import TrustedHostMiddleware
 
     app = FastAPI(title="lanefinder review", docs_url=None, redoc_url=None, openapi_url=None)
-
-    @app.middleware("http")
-    async def bounded_bodies(request: Request, call_next):
-        size = request.headers.get("content-length")
-        if size is not None and (not size.isdigit() or int(size) > MAX_BODY_BYTES):
-            return JSONResponse({"detail": f"request body over {MAX_BODY_BYTES} bytes"}, status_code=413)
-        return await call_next(request)
+    # Only requests addressed to this machine's names: a page elsewhere cannot reach the server
+    # through a name of its own that resolves here (DNS rebinding).
+    app.add_middleware(TrustedHostMiddleware, allowed_hosts=list(allowed_hosts or LOCAL_HOSTS))
+    app.add_middleware(_BoundedBody, limit=MAX_BODY_BYTES)
 
     @app.exception_handler(LaneFinderError)
     async def lanefinder_error(_request: Request, exc: LaneFinderError):
@@ -616,7 +708,7 @@ def create_app(review: Review):
             raise HTTPException(404, f"no video {video_id!r}") from None
 
     def frame_index(v: VideoSource, n: int) -> int:
-        count = v.reader().frames
+        count = v.frame_count()
         if not 0 <= n < count:
             raise HTTPException(404, f"frame {n} is out of range 0..{count - 1}")
         return n
@@ -659,16 +751,21 @@ def create_app(review: Review):
     def video_info(video_id: str):
         v = video(video_id)
         rows = v.rows()
-        r = v.reader()
         series = {k: [row.get(k) for row in rows] for k in _SERIES}
         series["frame"] = [row["frame"] for row in rows]
-        return _clean({"video": v.video_id, "frames": r.frames, "fps": r.fps, "width": r.size[0], "height": r.size[1],
+        return _clean({"video": v.video_id, "frames": v.frame_count(), "fps": v.fps(), "source": v.source is not None,
                        "series": series, "events": v.events, "summary": v.summary,
                        "src": review.config.birdseye.src, "reference_size": review.config.birdseye.reference_size})
 
+    def with_source(video_id: str) -> VideoSource:
+        v = video(video_id)
+        if v.source is None:
+            raise HTTPException(404, f"the source video of {video_id} is not readable here")
+        return v
+
     @app.get("/api/videos/{video_id}/frames/{n}.jpg")
     def frame(video_id: str, n: int, overlay: bool = True, width: int = 960):
-        v = video(video_id)
+        v = with_source(video_id)
         n = frame_index(v, n)
         img = v.reader().get(n)
         if overlay:
@@ -680,7 +777,7 @@ def create_app(review: Review):
         from .pipeline import LaneFinder
         from .stages import inspect_frame
 
-        v = video(video_id)
+        v = with_source(video_id)
         n = frame_index(v, n)
         t0 = time.perf_counter()
         cfg = _merged(review.config, body.config, body.src)
@@ -758,7 +855,8 @@ def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print)
     shown = sock.getsockname()[1]
     echo(f"lanefinder review of {review.root} ({review.mode}, {len(review.videos)} videos): "
          f"http://{'[' + host + ']' if ':' in host else host}:{shown}/  (Ctrl-C to stop)")
-    config = uvicorn.Config(create_app(review), log_level="warning")
+    hosts = None if host in ("127.0.0.1", "localhost", "::1") else ("*",)
+    config = uvicorn.Config(create_app(review, hosts), log_level="warning")
     uvicorn.Server(config).run(sockets=[sock])
 
 

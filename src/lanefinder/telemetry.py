@@ -141,14 +141,12 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int], far
     keep = np.logical_and.accumulate(np.concatenate([[True], np.diff(fy) > 0]))
     fy, fx = fy[keep], fx[keep]
     w = be.frame_size[0]
-    out = []
-    for r in rows:
-        if fy.size < 2 or r < fy[0] or r > fy[-1]:
-            out.append(-2.0)
-            continue
-        xv = float(np.interp(r, fy, fx))
-        out.append(round(xv, 1) if 0 <= xv < w else -2.0)
-    return out
+    if fy.size < 2:
+        return [-2.0] * len(rows)
+    r = np.asarray(rows, np.float64)
+    xv = np.interp(r, fy, fx)
+    ok = (r >= fy[0]) & (r <= fy[-1]) & (xv >= 0) & (xv < w)
+    return [round(float(x), 1) if k else -2.0 for x, k in zip(xv.tolist(), ok.tolist(), strict=True)]
 
 
 def _num(v: float | None, nd: int = 6) -> float | None:

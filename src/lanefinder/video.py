@@ -226,6 +226,7 @@ def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, t
         if start_s > 0:
             c.seek(int(start_s / tb), stream=s, backward=True, any_frame=False)
         first_pts = s.start_time or 0
+        last = -1
         packets = c.demux(s)
         while True:
             try:
@@ -247,7 +248,11 @@ def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, t
                 if end_s is not None and t >= end_s - 0.5 / float(fps):
                     return
                 stats.decoded += 1
-                yield Frame(round(t * fps), t, f.to_ndarray(format="bgr24"))
+                # Frame numbers from the timestamps, strictly increasing even where a
+                # variable-rate recording puts two frames in one slot.
+                index = max(last + 1, round(t * fps))
+                last = index
+                yield Frame(index, t, f.to_ndarray(format="bgr24"))
 
 
 class VideoSink:

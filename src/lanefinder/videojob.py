@@ -22,7 +22,7 @@ import numpy as np
 
 from .birdseye import BirdsEye
 from .config import Config
-from .errors import LaneFinderError
+from .errors import LaneFinderError, NoFramesError
 from .events import EVENT_KINDS, EVENT_SUFFIXES, detect_events, write_events
 from .io import OutputSet, encode_image, signals_held
 from .lane import LOST, REDETECT, LaneResult
@@ -300,7 +300,8 @@ class _Run:
         # What the lane events need of each frame (a few numbers: about 20 MB an hour of 25 fps video).
         self.events_fps = events_fps
         self.event_rows: list[dict] = []
-        self.sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist())
+        self.sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist()) \
+            if sheet_frames else set()
         self.thumbs: list[tuple[float, np.ndarray]] = []
         self.counts = RunCounts()
 
@@ -446,7 +447,8 @@ def process_video(
     check_memory(cfg, info.size, frames_held=4 * _QUEUE_FRAMES)
     expected = _expected_frames(info, start_s, end_s, max_frames)
     decode_stats = DecodeStats()
-    run = _Run(finder, be, expected, sheet_frames, debug, on_result, float(info.fps) if events is not None else None)
+    run = _Run(finder, be, expected, sheet_frames if contact_sheet_path else 0, debug, on_result,
+               float(info.fps) if events is not None else None)
     # Every output is written beside its destination and put in place together, only at the end.
     with OutputSet(inputs=[src]) as outs:
         sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads, outputs=outs) \
@@ -470,8 +472,9 @@ def process_video(
             raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
         if done == 0:
             _stop(sink, writer)
-            raise LaneFinderError(f"no frames could be decoded from {src}" +
-                                  (f" between {start_s} s and {end_s} s" if start_s or end_s else ""))
+            span = f" from {start_s} s" if start_s else ""
+            span += f" to {end_s} s" if end_s is not None else (" to the end" if span else "")
+            raise NoFramesError(f"no frames could be decoded from {src}{span}")
         try:
             if writer:
                 writer.close()

@@ -82,13 +82,14 @@ function seek(frame) {
   frame = Math.max(0, Math.min(v.frames - 1, Math.round(frame)));
   state.frame = frame;
   $("slider").value = frame;
-  $("frame").src = `/api/videos/${encodeURIComponent(v.video)}/frames/${frame}.jpg`;
+  if (v.source) $("frame").src = `/api/videos/${encodeURIComponent(v.video)}/frames/${frame}.jpg`;
+  else $("frame").alt = "the source video is not readable here: the plots and events still are";
   $("frame-label").textContent = `frame ${frame} / ${v.frames - 1}, ${timeOf(frame).toFixed(2)} s`;
   $("frame").dataset.frame = frame;
   if (window.Plotly && $("plots").data) {
     Plotly.relayout("plots", { "shapes[0].x0": timeOf(frame), "shapes[0].x1": timeOf(frame) });
   }
-  if (!state.playing) scheduleInspect();
+  if (!state.playing && v.source) scheduleInspect();
 }
 
 function renderEvents() {
@@ -131,19 +132,17 @@ function renderPlots() {
       line: { color: "#d00", width: 2 } }],
   };
   Plotly.newPlot("plots", traces, layout, { displayModeBar: false, responsive: true });
-  $("plots").on("plotly_click", (ev) => {
-    if (ev.points && ev.points.length) seek(Math.round(ev.points[0].x * state.video.fps));
-  });
-  // A click anywhere on the plot area seeks too (not only on a line).
-  $("plots").addEventListener("click", (ev) => {
-    const xa = $("plots")._fullLayout && $("plots")._fullLayout.xaxis;
-    if (!xa) return;
-    const box = $("plots").getBoundingClientRect();
-    const px = ev.clientX - box.left - xa._offset;
-    if (px < 0 || px > xa._length) return;
-    seek(Math.round(xa.p2l(px) * state.video.fps));
-  });
 }
+
+// A click anywhere on the plot area seeks to that time (set once: the plot is redrawn per video).
+$("plots").addEventListener("click", (ev) => {
+  const xa = $("plots")._fullLayout && $("plots")._fullLayout.xaxis;
+  if (!xa || !state.video) return;
+  const box = $("plots").getBoundingClientRect();
+  const px = ev.clientX - box.left - xa._offset;
+  if (px < 0 || px > xa._length) return;
+  seek(Math.round(xa.p2l(px) * state.video.fps));
+});
 
 $("slider").addEventListener("input", () => seek(Number($("slider").value)));
 $("back").addEventListener("click", () => seek(state.frame - 1));
@@ -166,10 +165,19 @@ function playNext() {
   if (!state.playing) return;
   if (state.frame >= state.video.frames - 1) { setPlaying(false); return; }
   const started = performance.now();
-  $("frame").addEventListener("load", () => {
+  const img = $("frame");
+  const loaded = () => {
+    img.removeEventListener("error", failed);
     const wait = Math.max(0, 1000 / state.video.fps - (performance.now() - started));
     setTimeout(playNext, wait);
-  }, { once: true });
+  };
+  const failed = () => {
+    img.removeEventListener("load", loaded);
+    setPlaying(false);
+    setStatus(`frame ${state.frame} could not be shown`, true);
+  };
+  img.addEventListener("load", loaded, { once: true });
+  img.addEventListener("error", failed, { once: true });
   seek(state.frame + 1);
 }
 
