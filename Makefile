@@ -22,8 +22,9 @@ demo: $(STAMP)
 	$(BIN)/lanefinder image data/test_images -o output/images --stages output/stages
 	@echo "demo outputs are in output/"
 
+# Two processes (the machines have 2 cores); a test file stays in one process (its fixtures are shared).
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The unit tests and doctests (no full videos, no encoding, no subprocesses): under 30 s.
 test-fast: $(STAMP)
