@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test test-fast lint bench eval eval-tune stills check-videos clean
+.PHONY: install demo test test-fast lint bench eval eval-tune eval-events stills check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +42,10 @@ eval: $(STAMP)
 
 eval-tune: $(STAMP)
 	$(BIN)/python scripts/eval_synthetic.py --frames 100 --seeds 0 --out output/eval-tune
+
+# Lane events against synthetic truth (held-out seeds 101-103).
+eval-events: $(STAMP)
+	$(BIN)/python scripts/eval_events.py
 
 # Blind stills (one a second) against the tracked videos: the single-image path.
 stills: $(STAMP)
