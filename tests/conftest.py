@@ -35,9 +35,14 @@ def shared_video(name: str) -> Path:
 
 def faststart_copy(src: Path, dst: Path) -> None:
     """Remux an MP4 with its index (moov) in front, as streaming-friendly files have it."""
+    remux(src, dst, "mp4", {"movflags": "faststart"})
+
+
+def remux(src: Path, dst: Path, fmt: str | None = None, options: dict | None = None) -> None:
+    """Copy a video's packets into another container (no re-encoding)."""
     import av
 
-    with av.open(str(src)) as i, av.open(str(dst), "w", format="mp4", options={"movflags": "faststart"}) as o:
+    with av.open(str(src)) as i, av.open(str(dst), "w", format=fmt, options=options or {}) as o:
         s_in = i.streams.video[0]
         s_out = o.add_stream_from_template(s_in)
         for pkt in i.demux(s_in):

@@ -23,7 +23,7 @@ from lanefinder.batch import find_inputs, plan_segments, run_batch
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
-from conftest import CLIPS
+from conftest import CLIPS, remux
 
 pytestmark = pytest.mark.slow
 
@@ -201,16 +201,8 @@ def test_bad_batch_inputs_are_one_line(tmp_path):
 
 def _cut_mkv(src: Path, dst: Path, fraction: float) -> None:
     """Remux to Matroska (which states the duration up front) and cut the file short."""
-    import av
-
     whole = dst.with_suffix(".whole.mkv")
-    with av.open(str(src)) as i, av.open(str(whole), "w") as o:
-        s_in = i.streams.video[0]
-        s_out = o.add_stream_from_template(s_in)
-        for pkt in i.demux(s_in):
-            if pkt.dts is not None:
-                pkt.stream = s_out
-                o.mux(pkt)
+    remux(src, whole)
     data = whole.read_bytes()
     dst.write_bytes(data[: int(len(data) * fraction)])
     whole.unlink()
