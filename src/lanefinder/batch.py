@@ -40,14 +40,13 @@ import pyarrow.parquet as pq
 from . import __version__
 from .config import Config, dump_config
 from .errors import LaneFinderError, NoFramesError
-from .tables import telemetry_schema
+from .stats import lane_shares
 
 __all__ = [
     "VIDEO_SUFFIXES",
     "BatchReport",
     "Segment",
     "VideoEntry",
-    "batch_schema",
     "config_hash",
     "content_hash",
     "find_inputs",
@@ -580,7 +579,7 @@ _SUMMARY_FIELDS = ("video", "input", "status", "error", "frames", "duration_s", 
 
 def _summarise(results: list[dict], fps: float, cfg: Config) -> tuple[dict, list[dict]]:
     """Give a video's summary and events from its segments' results (in order)."""
-    from .events import detect_events, event_row
+    from .events import EVENT_KINDS, detect_events, event_row
 
     cols: dict[str, list] = {k: [] for k in _EVENT_COLUMNS}
     for r in results:
@@ -589,17 +588,12 @@ def _summarise(results: list[dict], fps: float, cfg: Config) -> tuple[dict, list
     n = len(cols["frame"])
     rows = [dict(zip(_EVENT_COLUMNS, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
     events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
-    widths = [w for w in cols["width_m"] if w is not None]
-    lost = sum(s == "lost" for s in cols["state"])
     seconds = sum(r["seconds"] for r in results)
-    kinds = {k: sum(e["kind"] == k for e in events) for k in
-             ("departure-left", "departure-right", "lane-change-left", "lane-change-right", "lost")}
+    kinds = {k: sum(e["kind"] == k for e in events) for k in EVENT_KINDS}
     b = cfg.birdseye
     summary = {
-        "frames": n, "duration_s": round(n / fps, 3) if fps else None,
-        "pct_lane": round(100 * (n - lost) / n, 2) if n else None, "pct_lost": round(100 * lost / n, 2) if n else None,
+        **lane_shares(cols["state"], cols["width_m"]), "duration_s": round(n / fps, 3) if fps else None,
         "pct_both_lines": round(100 * sum(r["both_found"] for r in results) / n, 2) if n else None,
-        "mean_width_m": round(sum(widths) / len(widths), 4) if widths else None,
         "fps": round(n / seconds, 2) if seconds else None,
         "damaged_packets": sum(r["damaged"] for r in results), "truncated": any(r["truncated"] for r in results),
         "setup": json.dumps({"camera": cfg.camera.model, "src": b.src, "reference_size": b.reference_size}),
@@ -892,19 +886,3 @@ def _remove(fs, path: str) -> None:
     with contextlib.suppress(FileNotFoundError):
         if fs.exists(path):
             fs.rm(path, recursive=True)
-
-
-def batch_schema() -> pa.Schema:
-    """Return the schema of the fleet dataset's rows: ``video`` and the telemetry's columns.
-
-    Returns
-    -------
-    pyarrow.Schema
-        ``video`` (string) and :func:`lanefinder.tables.telemetry_schema`.
-
-    Examples
-    --------
-    >>> batch_schema().names[:3]
-    ['video', 'frame', 'time_s']
-    """
-    return telemetry_schema({"video": pa.string()})

@@ -30,6 +30,7 @@ from pydantic import BaseModel, ValidationError
 from .config import Config, config_from_dict, dump_config, load_config
 from .errors import LaneFinderError
 from .io import atomic_write_text
+from .stats import lane_shares
 from .telemetry import TELEMETRY_SUFFIXES, read_telemetry
 
 __all__ = ["LOCAL_HOSTS", "MAX_BODY_BYTES", "TUNABLE_SECTIONS", "FrameReader", "Review", "VideoSource", "config_form",
@@ -450,13 +451,8 @@ def _single_video(video: Path, telemetry: str | Path | None, cfg: Config) -> Vid
     rows = v.rows()
     fps = v.reader().fps
     v.events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
-    n = len(rows)
-    lost = sum(r.get("state") == "lost" for r in rows)
-    widths = [r["width_m"] for r in rows if r.get("width_m") is not None]
-    v.summary = {"video": v.video_id, "input": str(video), "status": "done", "error": None, "frames": n,
-                 "pct_lane": round(100 * (n - lost) / n, 2) if n else None,
-                 "pct_lost": round(100 * lost / n, 2) if n else None,
-                 "mean_width_m": round(sum(widths) / len(widths), 4) if widths else None,
+    v.summary = {"video": v.video_id, "input": str(video), "status": "done", "error": None,
+                 **lane_shares([r.get("state") for r in rows], [r.get("width_m") for r in rows]),
                  "events": len(v.events)}
     return v
 

@@ -10,7 +10,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["curves", "video_stats"]
+__all__ = [
+    "curves",
+    "lane_shares",
+    "video_stats",
+]
 
 
 def curves(rows: list[dict], min_s: float = 2.0, straight_m: float = 3000.0) -> list[dict[str, Any]]:
@@ -95,3 +99,32 @@ def video_stats(rows: list[dict]) -> dict[str, Any]:
         "max_offset_jump_m": float(np.nanmax(jumps)) if np.isfinite(jumps).any() else float("nan"),
         "curves": curves(rows),
     }
+
+
+def lane_shares(states: list[str | None], widths: list[float | None]) -> dict[str, Any]:
+    """Give a run's share of frames with a lane, lost, and its mean lane width (summary figures).
+
+    Parameters
+    ----------
+    states : list of str
+        Each frame's ``state``.
+    widths : list of float or None
+        Each frame's ``width_m`` (None where there is none).
+
+    Returns
+    -------
+    dict
+        ``frames``; ``pct_lane`` and ``pct_lost`` (% of frames, 2 decimals); ``mean_width_m``
+        (m, 4 decimals); None where there are no frames or widths.
+
+    Examples
+    --------
+    >>> lane_shares(["tracking", "lost", "tracking", "re-detect"], [3.7, None, 3.5, 3.6])
+    {'frames': 4, 'pct_lane': 75.0, 'pct_lost': 25.0, 'mean_width_m': 3.6}
+    """
+    n = len(states)
+    lost = sum(s == "lost" for s in states)
+    known = [w for w in widths if w is not None]
+    return {"frames": n, "pct_lane": round(100 * (n - lost) / n, 2) if n else None,
+            "pct_lost": round(100 * lost / n, 2) if n else None,
+            "mean_width_m": round(sum(known) / len(known), 4) if known else None}

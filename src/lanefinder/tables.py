@@ -4,7 +4,7 @@ The columns are the telemetry's :data:`~lanefinder.telemetry.FIELDS`, with the s
 in CSV and JSON Lines, and typed: ``frame`` and ``misses`` int64, ``state`` string, the
 ``*_found``/``*_inferred`` flags bool, the other numbers float64 (null where missing), and the
 list fields typed lists (``h_samples`` list<int32>, the fits and x lists list<float64>).
-A fleet dataset adds a ``video`` column (its partition key).
+In a fleet dataset the video is the partition key (``telemetry/video=<id>/``).
 """
 
 from __future__ import annotations
@@ -40,13 +40,8 @@ def _field_type(name: str) -> pa.DataType:
     return pa.float64()
 
 
-def telemetry_schema(extra: Mapping[str, pa.DataType] | None = None) -> pa.Schema:
+def telemetry_schema() -> pa.Schema:
     """Return the Arrow schema of telemetry rows.
-
-    Parameters
-    ----------
-    extra : mapping of str to pyarrow.DataType, optional
-        Columns put in front of the telemetry's (for example ``{"video": pa.string()}``).
 
     Returns
     -------
@@ -59,8 +54,7 @@ def telemetry_schema(extra: Mapping[str, pa.DataType] | None = None) -> pa.Schem
     >>> str(s.field("frame").type), str(s.field("left_x").type), str(s.field("h_samples").type)
     ('int64', 'list<item: double>', 'list<item: int32>')
     """
-    fields = [pa.field(k, t) for k, t in (extra or {}).items()]
-    return pa.schema(fields + [pa.field(name, _field_type(name)) for name in FIELDS])
+    return pa.schema([pa.field(name, _field_type(name)) for name in FIELDS])
 
 
 def rows_to_table(rows: Iterable[Mapping[str, Any]], schema: pa.Schema | None = None) -> pa.Table:
@@ -110,8 +104,6 @@ class ParquetRowWriter:
         The file to write (any writable file-like path).
     schema : pyarrow.Schema, optional
         The schema (default :func:`telemetry_schema`).
-    constants : mapping, optional
-        Values for the schema's extra columns, the same on every row (for example the video).
 
     Examples
     --------
@@ -124,9 +116,8 @@ class ParquetRowWriter:
     'lost'
     """
 
-    def __init__(self, path: str | Path, schema: pa.Schema | None = None, constants: Mapping[str, Any] | None = None):
+    def __init__(self, path: str | Path, schema: pa.Schema | None = None):
         self.schema = schema or telemetry_schema()
-        self.constants = dict(constants or {})
         self._rows: list[Mapping[str, Any]] = []
         self._writer = pq.ParquetWriter(str(path), self.schema, compression="zstd")
         self.rows = 0
@@ -139,7 +130,7 @@ class ParquetRowWriter:
         row : mapping
             A telemetry row.
         """
-        self._rows.append({**row, **self.constants} if self.constants else row)
+        self._rows.append(row)
         self.rows += 1
         if len(self._rows) >= ROW_GROUP_ROWS:
             self.flush()
