@@ -89,7 +89,7 @@ class CameraModel:
         return bool(np.any(self.dist_coeffs != 0))
 
     @classmethod
-    def ideal(cls, image_size: Size, hfov_deg: float = 60.0) -> CameraModel:
+    def ideal(cls, image_size: Size, hfov_deg: float = 60.0, focal_px: float | None = None) -> CameraModel:
         """Make a distortion-free camera: for footage with no calibration.
 
         Parameters
@@ -98,6 +98,8 @@ class CameraModel:
             (width, height), pixels.
         hfov_deg : float, optional
             Horizontal field of view, degrees.
+        focal_px : float, optional
+            The focal length, pixels (instead of ``hfov_deg``).
 
         Returns
         -------
@@ -105,7 +107,7 @@ class CameraModel:
             Principal point at the image centre, square pixels, no distortion.
         """
         w, h = image_size
-        f = (w / 2) / math.tan(math.radians(hfov_deg) / 2)
+        f = focal_px if focal_px is not None else (w / 2) / math.tan(math.radians(hfov_deg) / 2)
         k = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1]], dtype=np.float64)
         return cls(k, np.zeros(5), (int(w), int(h)), source="ideal (no distortion model)")
 

@@ -368,8 +368,9 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
               help="Bottom row of the view as a fraction of the height (above the hood).")
 @click.option("--lane-width", "lane_width_m", type=_Finite(2.0, 6.0), default=3.7, show_default=True,
               help="The lane's width between line centres, m.")
-@click.option("--dash-period", "dash_period_m", type=_Finite(1.0, 50.0), default=12.0, show_default=True,
-              help="Dash + gap length, m (the along-road scale without a camera file).")
+@click.option("--dash-period", "dash_period_m", type=_Finite(1.0, 50.0), default=12.2, show_default=True,
+              help="Dash + gap length, m: fixes the focal length without a camera file (12.2: US federal; "
+                   "California paints 14.6).")
 @click.option("-o", "--output", required=True, type=click.Path(), help="Config to write (.toml/.yaml/.json).")
 def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | None, lookahead_m: float,
           bottom_fraction: float, lane_width_m: float, dash_period_m: float, output: str) -> None:
@@ -401,17 +402,25 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     for note in result.notes:
         click.echo(f"note: {note}")
     b = result.birdseye
-    click.echo(f"frames used: {result.frames_used} of {len(images)}; frame size {b.reference_size[0]}x"
-               f"{b.reference_size[1]}")
-    click.echo(f"vanishing point: ({result.vp[0]:.1f}, {result.vp[1]:.1f}); horizon row {result.horizon_row:.1f}")
+    click.echo(f"frame size {b.reference_size[0]}x{b.reference_size[1]}")
+    click.echo(f"vanishing point: ({result.vp[0]:.1f}, {result.vp[1]:.1f}); horizon row {result.horizon_row:.1f}; "
+               f"focal length {result.focal_px:.0f} px ({result.ym_source}); camera {result.height_m:.2f} m "
+               "over the road")
     click.echo("src: " + ", ".join(f"({x:.1f}, {y:.1f})" for x, y in b.src))
     click.echo("dst: " + ", ".join(f"({x:.0f}, {y:.0f})" for x, y in b.dst) + f" in a {b.size[0]}x{b.size[1]} view")
     click.echo(f"xm_per_px = {b.xm_per_px:.6f} (lane width {lane_width_m} m over {b.dst[1][0] - b.dst[0][0]:.0f} px); "
-               f"ym_per_px = {b.ym_per_px:.6f} ({result.ym_source})")
-    click.echo(f"straightness: lines bend by at most {result.straightness_px:.1f} px in the bird's-eye view")
+               f"ym_per_px = {b.ym_per_px:.6f}")
+    click.echo(f"straightness: the accepted frames' lines bend by at most {result.straightness_px:.1f} px over the "
+               "view")
+    quality = result.quality.lines() if result.quality else []
+    for line in quality:
+        click.echo(line)
     fmt = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(output).suffix.lower(), "toml")
     with OutputSet(inputs=_setup_inputs(paths, camera_path)) as together:
-        atomic_write_text(output, dump_config(result.config(), fmt), outputs=together)  # type: ignore[arg-type]
+        text = dump_config(result.config(), fmt)  # type: ignore[arg-type]
+        if fmt != "json":  # JSON has no comments: the report is printed above
+            text = "".join(f"# set-up {line}\n" for line in quality[:3]) + text
+        atomic_write_text(output, text, outputs=together)
         write_image(prev, preview(images[0], result, camera), outputs=together)
     click.echo(f"wrote {output} and {prev}; use it with: lanefinder video IN.mp4 -o OUT.mp4 -c {output}")
 

@@ -99,6 +99,10 @@ class CameraConfig(_Section):
         ``udacity`` (the built-in calibration), ``none`` (an ideal pinhole), or the path of a
         camera file (JSON from ``lanefinder calibrate``, or OpenCV's YAML/XML), relative to the
         config file that names it.
+    focal_px : float or None
+        With ``none``: the pinhole's focal length, pixels at ``birdseye.reference_size``
+        (``lanefinder setup`` measures and writes it; it places the car).  None: a 60 degree
+        field of view.
 
     Examples
     --------
@@ -107,6 +111,7 @@ class CameraConfig(_Section):
     """
 
     model: str = "udacity"
+    focal_px: Annotated[float, Field(gt=1, le=1e6)] | None = None
 
 
 class BirdseyeConfig(_Section):

@@ -35,6 +35,7 @@ __all__ = [
     "line_accuracy",
     "read_ground_truth",
     "read_predictions",
+    "setup_error",
 ]
 
 #: Distance bands of the per-band accuracy, m ahead of the camera.
@@ -520,3 +521,40 @@ def _lateral_errors(g: dict, lanes: list, dist: str) -> list[float]:
         if best is not None:
             out.append(best)
     return out
+
+
+def setup_error(estimate, truth) -> dict[str, float]:
+    """Measure a bird's-eye set-up against the true one, on road points the truth knows.
+
+    Points across the lane (3.7 m apart) at the truth's bottom row and 20 m further are
+    carried through the raw frame into the estimate's view.
+
+    Parameters
+    ----------
+    estimate, truth : BirdsEye
+        The set-up to judge and the true one, for frames of the same size.
+
+    Returns
+    -------
+    dict
+        ``xm_pct`` and ``ym_pct``: the estimate's distances across and along over the true
+        ones, minus 1, percent; ``car_m``: where the estimate places the true car line (the
+        road under the camera) at the bottom row, m from its own car position.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> {k: round(v, 6) for k, v in setup_error(be, be).items()}
+    {'xm_pct': 0.0, 'ym_pct': 0.0, 'car_m': 0.0}
+    """
+    t, e = truth, estimate
+    h_t, h_e = t.size[1], e.size[1]
+    road = np.array([[-1.85, 0.0], [1.85, 0.0], [0.0, 0.0], [0.0, 20.0]])
+    view_t = np.column_stack([t.car_x_px + road[:, 0] / t.xm_per_px, h_t - road[:, 1] / t.ym_per_px])
+    view_e = e.from_frame(t.to_frame(view_t))
+    x_e = (view_e[:, 0] - e.car_x_px) * e.xm_per_px
+    z_e = (h_e - view_e[:, 1]) * e.ym_per_px
+    return {"xm_pct": float(100 * ((x_e[1] - x_e[0]) / 3.7 - 1)),
+            "ym_pct": float(100 * ((z_e[3] - z_e[2]) / 20.0 - 1)),
+            "car_m": float(x_e[2])}

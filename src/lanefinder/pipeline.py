@@ -59,8 +59,10 @@ def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -
     if name == "udacity":
         return udacity_camera()
     if name == "none":
-        size = frame_size or cfg.birdseye.reference_size
-        return CameraModel.ideal(size)
+        ref = cfg.birdseye.reference_size
+        size = frame_size or ref
+        focal = cfg.camera.focal_px
+        return CameraModel.ideal(size, focal_px=None if focal is None else focal * size[0] / ref[0])
     return load_camera(name)
 
 

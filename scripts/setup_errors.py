@@ -1,0 +1,147 @@
+"""Set-up error, before and after: vanishing point (px), xm and ym (%), car position (m).
+
+Cases: straight_lines1/2, the project clip, the challenge video (when ../shared is there) and
+synthetic straight roads from several cameras (960x540 and 1920x1080, focal lengths, heights,
+pitches), each with and without the camera file.  Truth: the exact set-up for synthetic
+footage; for the Udacity camera the hand-tuned default set-up (vanishing point 639.2, 418.6),
+and for the challenge video (its camera sits differently) the camera-file set-up of the
+version being measured.  "before" runs the set-up of another commit (default becf45c).
+
+    python scripts/setup_errors.py [--before COMMIT] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from lanefinder import autosetup as after
+from lanefinder.camera import CameraModel, udacity_camera
+from lanefinder.config import Config
+from lanefinder.evaluate import setup_error
+from lanefinder.pipeline import birdseye_from_config, camera_from_config
+from lanefinder.synth import Mount, Renderer, Scenario, level_to_camera
+
+ROOT = Path(__file__).resolve().parents[1]
+CHALLENGE = ROOT.parent / "shared/data/udacity/videos/challenge_video.mp4"
+
+
+def load_before(commit: str):
+    src = subprocess.run(["git", "show", f"{commit}:src/lanefinder/autosetup.py"], cwd=ROOT, check=True,
+                         capture_output=True, text=True).stdout
+    path = Path(tempfile.mkdtemp()) / "_autosetup_before.py"
+    path.write_text(src)
+    spec = importlib.util.spec_from_file_location("lanefinder._autosetup_before", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def birdseye_of(result, size):
+    cfg = result.config()
+    return birdseye_from_config(cfg, camera_from_config(cfg, size), size)
+
+
+def vp_of_src(src) -> np.ndarray:
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = src
+    l1 = np.cross([x0, y0, 1], [x3, y3, 1])
+    l2 = np.cross([x1, y1, 1], [x2, y2, 1])
+    v = np.cross(l1, l2)
+    return v[:2] / v[2]
+
+
+def row(name, mod, frames, camera, truth_be, truth_vp, size, **opts):
+    label = "file" if camera is not None else "none"
+    t0 = time.perf_counter()
+    try:
+        r = mod.auto_setup(frames, camera, mod.SetupOptions(**opts), camera_ref="udacity" if camera is
+                           udacity_camera_cached else ("none" if camera is None else "cam.json"))
+    except Exception as e:  # noqa: BLE001 - a refusal is a result here
+        return f"| {name} | {label} | refused: {str(e)[:90]} | | | | |"
+    if camera is not None and camera is not udacity_camera_cached:
+        cfg = r.config()
+        be = after.__dict__["_be_with_camera"](cfg, camera, size)
+    else:
+        be = birdseye_of(r, size)
+    err = setup_error(be, truth_be)
+    vp = np.array(r.vp)
+    dvp = float(np.hypot(*(vp - truth_vp)))
+    return (f"| {name} | {label} | {dvp:.1f} | {err['xm_pct']:+.1f} | {err['ym_pct']:+.1f} | {err['car_m']:+.2f} | "
+            f"{r.frames_used} ({time.perf_counter() - t0:.1f} s) |")
+
+
+udacity_camera_cached = udacity_camera()
+
+
+def _be_with_camera(cfg, camera, size):
+    return birdseye_from_config(cfg, camera, size)
+
+
+after._be_with_camera = _be_with_camera  # the rows for a camera file use that camera
+
+
+def synthetic_cases(quick: bool):
+    cams = [((960, 540), 700.0, 1.2, -1.0), ((960, 540), 1000.0, 1.6, 3.0), ((960, 540), 500.0, 1.4, 1.0),
+            ((1920, 1080), 1400.0, 1.3, 0.0), ((1920, 1080), 2100.0, 1.5, 2.0), ((1920, 1080), 1100.0, 1.1, -2.0)]
+    if quick:
+        cams = cams[:2]
+    for (w, h), f, height, pitch in cams:
+        k = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1.0]])
+        cam = CameraModel(k, np.zeros(5), (w, h), source="synthetic")
+        mount = Mount(height_m=height, pitch_deg=pitch)
+        r = Renderer(cam, mount, Scenario("straight-setup", width_m=(3.7, 0.0)), seed=11)
+        frames = [r.render(t) for t in np.linspace(0, 4, 8)]
+        b = r.birdseye_config()
+        truth_cfg = Config.model_validate({"camera": {"model": "none"}, "birdseye": b})
+        truth_be = birdseye_from_config(truth_cfg, cam, (w, h))
+        v = k @ level_to_camera(pitch) @ [0, 0, 1.0]
+        yield f"synthetic {w}x{h} f={f:.0f} h={height} pitch={pitch:+}", frames, cam, truth_be, v[:2] / v[2], (w, h)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--before", default="becf45c")
+    ap.add_argument("--quick", action="store_true", help="two synthetic cameras, no challenge video")
+    args = ap.parse_args()
+    before = load_before(args.before)
+    ucam = udacity_camera_cached
+    default_be = birdseye_from_config(Config(), ucam, (1280, 720))
+    default_vp = vp_of_src(Config().birdseye.src)
+    straight = [cv2.imread(str(ROOT / f"data/test_images/straight_lines{i}.jpg")) for i in (1, 2)]
+    clip = ROOT / "data/clips/project_37-47s.mp4"
+    cases = [("straight_lines1/2", lambda m: straight, default_be, default_vp, (1280, 720)),
+             ("project clip", lambda m: m.straight_frames_from_video(clip, None, m.SetupOptions()), default_be,
+              default_vp, (1280, 720))]
+    header = ("| case | camera file | vanishing point error, px | xm error, % | ym error, % | car position error, m "
+              "| frames used |\n|---|---|---|---|---|---|---|")
+    for label, mod in (("before", before), ("after", after)):
+        print(f"\n### {label}\n\n{header}")
+        for name, get, tbe, tvp, size in cases:
+            frames = get(mod)
+            for cam in (ucam, None):
+                print(row(name, mod, frames, cam, tbe, tvp, size), flush=True)
+                if cam is None and mod is after:
+                    print(row(name + " (dash period 14.6 m)", mod, frames, cam, tbe, tvp, size, dash_period_m=14.63),
+                          flush=True)
+        if CHALLENGE.is_file() and not args.quick:
+            frames = mod.straight_frames_from_video(CHALLENGE, None, mod.SetupOptions())
+            ref = after.auto_setup(after.straight_frames_from_video(CHALLENGE, None, after.SetupOptions()), ucam)
+            tbe = birdseye_of(ref, (1280, 720))
+            for cam in (ucam, None):
+                print(row("challenge video", mod, frames, cam, tbe, np.array(ref.vp), (1280, 720)), flush=True)
+        for name, frames, cam, tbe, tvp, size in synthetic_cases(args.quick):
+            for c in (cam, None):
+                print(row(name, mod, frames, c, tbe, tvp, size, dash_period_m=12.0), flush=True)
+
+
+if __name__ == "__main__":
+    main()
