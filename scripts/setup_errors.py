@@ -65,7 +65,7 @@ def row(name, mod, frames, camera, truth_be, truth_vp, size, **opts):
     try:
         r = mod.auto_setup(frames, camera, mod.SetupOptions(**opts), camera_ref="udacity" if camera is
                            udacity_camera_cached else ("none" if camera is None else "cam.json"))
-    except Exception as e:  # noqa: BLE001 - a refusal is a result here
+    except Exception as e:  # a refusal is a result here
         return f"| {name} | {label} | refused: {str(e)[:90]} | | | | |"
     if camera is not None and camera is not udacity_camera_cached:
         cfg = r.config()

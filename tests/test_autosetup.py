@@ -33,7 +33,7 @@ def test_auto_setup_agrees_with_the_hand_tuned_default(udacity_auto):
     # fits lines to marking pixels while this one votes rays from the vanishing point: 6 px at
     # the trapezoid corners is 0.8% of the 760 px lane at the bottom (3 cm), and 5% of the
     # 122 px lane at the top row.  Measured: at most 4.0 px.
-    for (xa, ya), (xd, yd) in zip(auto.src, default.src, strict=True):
+    for (_, ya), (_, yd) in zip(auto.src, default.src, strict=True):
         # The new view's edges run square to the road, not along image rows: the camera's yaw
         # (vanishing point 27 px left of the principal point) tilts them by 2 px each way.
         assert abs(ya - yd) <= 3.5

@@ -891,7 +891,7 @@ def dash_period_m(profiles: Sequence[np.ndarray], step_m: float, opts: SetupOpti
     if not clean:
         return None
     size = int(hi_m / step_m) + 2
-    first = int(math.ceil(lo_m / step_m))
+    first = math.ceil(lo_m / step_m)
     acs = [_autocorrelation(c, min(size, c.size)) for c in clean]
     total = np.zeros(size)
     count = np.zeros(size)
