@@ -31,6 +31,7 @@ __all__ = [
     "RenderConfig",
     "RidgeConfig",
     "SearchConfig",
+    "SelfCalConfig",
     "SobelHlsConfig",
     "ThresholdConfig",
     "TrackingConfig",
@@ -651,6 +652,59 @@ class LimitsConfig(_Section):
     memory_mb: Annotated[int, Field(ge=64, le=1_048_576)] = 2048
 
 
+class SelfCalConfig(_Section):
+    """Self-calibration: the set-up estimated from the video itself while it runs.
+
+    It runs on ``lanefinder video`` (and batch, review) when the config gives no set-up of
+    its own (``birdseye`` is the default).  Frames are looked at as for ``lanefinder setup``
+    (vanishing point, ego lines, camera height from the lane width, curved frames refused);
+    the focal length is the camera's (``camera.model``), or measured from the dashes when
+    that is ``none`` without ``focal_px``.  The estimate replaces the set-up in use when it
+    would read the road differently by more than the ``change_*`` limits.
+
+    Attributes
+    ----------
+    enabled : bool
+        Estimate the set-up from the video when the config gives none.
+    every_frames : int
+        While too few frames are in, look at one frame in this many.
+    refine_every_frames : int
+        Afterwards, one in this many (slow refinement).
+    min_frames : int
+        Accepted frames before the first estimate.
+    window_frames : int
+        The most recent accepted frames the estimate rests on.
+    work_width_px : int
+        Frames are looked at shrunk to this width.
+    change_xm_pct, change_ym_pct : float
+        A new estimate is taken when it reads distances across / along differently by more
+        than this, percent ...
+    change_car_m : float
+        ... or places the car differently by more than this, m ...
+    change_sigmas : float
+        ... and by more than this many of the estimate's expected errors.
+    dash_period_m : float
+        Dash plus gap, m, for the focal length without one (12.2: US federal; 14.6: California).
+
+    Examples
+    --------
+    >>> SelfCalConfig().enabled, SelfCalConfig().min_frames
+    (True, 8)
+    """
+
+    enabled: bool = True
+    every_frames: Annotated[int, Field(ge=1, le=1000)] = 4
+    refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 25
+    min_frames: Annotated[int, Field(ge=1, le=1000)] = 8
+    window_frames: Annotated[int, Field(ge=1, le=1000)] = 40
+    work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
+    change_xm_pct: Annotated[float, Field(gt=0, le=100)] = 3.0
+    change_ym_pct: Annotated[float, Field(gt=0, le=100)] = 6.0
+    change_car_m: Annotated[float, Field(gt=0, le=5)] = 0.08
+    change_sigmas: Annotated[float, Field(ge=0, le=100)] = 3.0
+    dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
+
+
 class BatchConfig(_Section):
     """How ``lanefinder batch`` cuts long videos into segments for the cluster.
 
@@ -755,6 +809,7 @@ class Config(_Section):
     limits : LimitsConfig
     batch : BatchConfig
     events : EventsConfig
+    selfcal : SelfCalConfig
 
     Examples
     --------
@@ -775,6 +830,7 @@ class Config(_Section):
     limits: LimitsConfig = LimitsConfig()
     batch: BatchConfig = BatchConfig()
     events: EventsConfig = EventsConfig()
+    selfcal: SelfCalConfig = SelfCalConfig()
 
 
 def _format_error(e: ValidationError, source: str) -> str:
@@ -909,7 +965,7 @@ def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml") -> s
     >>> print(dump_config(Config()).splitlines()[1])
     [camera]
     """
-    data = cfg.model_dump(mode="json")
+    data = cfg.model_dump(mode="json", exclude_none=True)  # None is "not set" (TOML has no null)
     if fmt == "toml":
         import tomli_w
 

@@ -108,6 +108,9 @@ class LaneResult:
         Consecutive frames without an accepted measurement.
     checks : tuple of str
         The reasons (named checks) that rejected something this frame.
+    setup : str
+        Where the bird's-eye set-up came from: ``config``, ``default`` (self-calibration
+        has no estimate yet) or ``estimated`` (see :mod:`lanefinder.selfcal`).
     binary : ndarray or None
         The bird's-eye binary (uint8 0/1), kept for debugging views only.
     search : SearchResult or None
@@ -132,6 +135,7 @@ class LaneResult:
     state: str
     misses: int = 0
     checks: tuple[str, ...] = ()
+    setup: str = "config"
     binary: np.ndarray | None = None
     search: SearchResult | None = None
 

@@ -24,6 +24,7 @@ from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measurer, measure
 from .search import Pixels
+from .selfcal import SelfCalibrator
 from .threshold import threshold
 from .tracking import Track, Verdict, step
 
@@ -123,6 +124,10 @@ class LaneFinder:
         The lens model; by default the one ``config.camera.model`` names.
     keep_debug : bool
         Keep each frame's bird's-eye binary and search in the result (for debug views).
+    self_calibrate : bool
+        Estimate the set-up from the frames while they come (:mod:`lanefinder.selfcal`; for
+        the frames of one video); :func:`lanefinder.selfcal.wanted` tells when a config asks
+        for it.
 
     Attributes
     ----------
@@ -130,6 +135,8 @@ class LaneFinder:
         The configuration.
     track : Track
         What the tracker remembers from the frames so far.
+    selfcal : SelfCalibrator or None
+        The self-calibration, once the first frame is in (with ``self_calibrate``).
 
     Examples
     --------
@@ -140,10 +147,13 @@ class LaneFinder:
     (True, True, 3.7)
     """
 
-    def __init__(self, config: Config | None = None, camera: CameraModel | None = None, keep_debug: bool = False):
+    def __init__(self, config: Config | None = None, camera: CameraModel | None = None, keep_debug: bool = False,
+                 self_calibrate: bool = False):
         self.config = config or Config()
         self.camera = camera
         self.keep_debug = keep_debug
+        self.self_calibrate = self_calibrate
+        self.selfcal: SelfCalibrator | None = None
         self.track = Track()
         self._birdseye: BirdsEye | None = None
         self._measurer: Measurer | None = None
@@ -187,6 +197,23 @@ class LaneFinder:
         """Forget the track (start of a new clip, or independent images)."""
         self.track = Track()
 
+    def use_birdseye(self, be: BirdsEye, keep_track: bool = True) -> None:
+        """Put another set-up in use for frames of its size.
+
+        Parameters
+        ----------
+        be : BirdsEye
+            The new set-up (from :mod:`lanefinder.selfcal`, say).
+        keep_track : bool, optional
+            Keep tracking from the lines found so far (for a set-up that differs a little:
+            the search around them allows for it); False starts afresh.
+        """
+        self._birdseye = be
+        self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
+        self._farview = None
+        if not keep_track:
+            self.reset()
+
     def process(self, frame: np.ndarray) -> LaneResult:
         """Find the lane in one frame.
 
@@ -211,7 +238,15 @@ class LaneFinder:
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
-        return self.extend_far(frame, self.process_binary(binary, be, view), be)
+        result = self.extend_far(frame, self.process_binary(binary, be, view), be)
+        if not self.self_calibrate:
+            return result
+        if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
+            self.selfcal = SelfCalibrator(self.config, be.camera, be)
+        new = self.selfcal.offer(frame)
+        if new is not None:
+            self.use_birdseye(new)  # from the next frame on
+        return replace(result, setup=self.selfcal.state.source)
 
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).

@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from .errors import LaneFinderError
-from .telemetry import BOOL_FIELDS, FIELDS, LIST_FIELDS
+from .telemetry import BOOL_FIELDS, FIELDS, LIST_FIELDS, TEXT_FIELDS
 
 __all__ = ["ROW_GROUP_ROWS", "ParquetRowWriter", "read_parquet_rows", "rows_to_table", "telemetry_schema"]
 
@@ -29,7 +29,7 @@ ROW_GROUP_ROWS = 2048
 def _field_type(name: str) -> pa.DataType:
     if name in ("frame", "misses"):
         return pa.int64()
-    if name == "state":
+    if name in TEXT_FIELDS:
         return pa.string()
     if name in BOOL_FIELDS:
         return pa.bool_()

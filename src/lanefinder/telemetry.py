@@ -3,7 +3,9 @@
 Fields (stable names; list-valued fields are JSON arrays, also inside CSV cells): frame,
 time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf, right_conf,
 radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m, left_fit_px,
-right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m.
+right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m, left_x_conf, right_x_conf,
+setup (config, default or estimated: see :mod:`lanefinder.selfcal`), horizon_px and
+camera_height_m (the set-up in use: its horizon row and the camera height it implies).
 
 The per-line fields (``left_*``/``right_*``) come from each side's
 :class:`~lanefinder.lane.Line` through one table, :data:`LINE_FIELDS`.  ``left_x``/``right_x``
@@ -14,6 +16,8 @@ fields after its own ``image``, ``output`` and ``ms``.
 """
 
 from __future__ import annotations
+
+import functools
 
 import contextlib
 import csv
@@ -40,6 +44,7 @@ __all__ = [
     "LINE_FIELDS",
     "LIST_FIELDS",
     "TELEMETRY_SUFFIXES",
+    "TEXT_FIELDS",
     "TelemetryWriter",
     "h_samples",
     "lane_row",
@@ -57,12 +62,22 @@ def _paired(name: str) -> list[str]:
 LINE_FIELDS = ("found", "inferred", "conf", "fit_m", "fit_px", "x", "range_m", "x_conf")
 FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *_paired("conf"),
           "radius_m", "curvature_per_m", "offset_m", "width_m", "misses", *_paired("fit_m"), *_paired("fit_px"),
-          "h_samples", *_paired("x"), *_paired("range_m"), *_paired("x_conf")]
+          "h_samples", *_paired("x"), *_paired("range_m"), *_paired("x_conf"),
+          "setup", "horizon_px", "camera_height_m"]
+#: Columns that hold text.
+TEXT_FIELDS = {"state", "setup"}
 LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x"), *_paired("x_conf")}
 _DEFAULT_DECAY_M = FarConfig().confidence_decay_m
 BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
 #: The telemetry formats, by file suffix.
 TELEMETRY_SUFFIXES = (".csv", ".jsonl", ".parquet")
+
+
+@functools.lru_cache(maxsize=8)
+def _setup_numbers(be: BirdsEye) -> tuple[float, float, float]:
+    from .selfcal import setup_of
+
+    return setup_of(be)
 
 
 def h_samples(frame_height: int) -> list[int]:
@@ -218,9 +233,11 @@ def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M) -> 
         side, _, name = key.partition("_")
         if side in per_line and name in LINE_FIELDS:
             out[key] = per_line[side][name]
+    horizon, height, _ = _setup_numbers(be)
     out.update({"radius_m": _num(r.radius_m, 2), "curvature_per_m": _num(r.curvature_per_m, 7),
                 "offset_m": _num(r.offset_m, 4), "width_m": _num(r.width_m, 4), "misses": r.misses,
-                "h_samples": rows})
+                "h_samples": rows, "setup": r.setup, "horizon_px": _num(horizon, 1),
+                "camera_height_m": _num(height, 3)})
     return {k: out[k] for k in FIELDS[2:]}
 
 
@@ -385,7 +402,7 @@ class TelemetryWriter:
             self.discard()
 
 
-_NUMBER_FIELDS = [f for f in FIELDS if f not in LIST_FIELDS and f not in BOOL_FIELDS and f != "state"]
+_NUMBER_FIELDS = [f for f in FIELDS if f not in LIST_FIELDS and f not in BOOL_FIELDS and f not in TEXT_FIELDS]
 
 
 def _parse_csv_value(key: str, v: str):
@@ -397,7 +414,7 @@ def _parse_csv_value(key: str, v: str):
         return v == "True"
     if key in ("frame", "misses"):
         return int(v)
-    if key == "state":
+    if key in TEXT_FIELDS:
         return v
     try:
         return float(v)

@@ -29,6 +29,8 @@ from .lane import LOST, REDETECT, LaneResult
 from .limits import check_memory
 from .pipeline import LaneFinder
 from .render import annotate, contact_sheet, draw_debug
+from .selfcal import SetupState
+from .selfcal import wanted as selfcal_wanted
 from .telemetry import TELEMETRY_SUFFIXES, TelemetryWriter, make_row
 from .video import DecodeStats, Frame, VideoInfo, VideoSink, frames
 
@@ -127,6 +129,8 @@ class VideoSummary:
         Lane events found, by kind, when they were asked for.
     events_path : str or None
         The events file.
+    setup : SetupState or None
+        The self-calibration's last word, when the run self-calibrated.
 
     Examples
     --------
@@ -151,6 +155,7 @@ class VideoSummary:
     padded: tuple[int, int] | None = None
     events: dict[str, int] | None = None
     events_path: str | None = None
+    setup: SetupState | None = None
 
     def lines(self) -> list[str]:
         """Return the end-of-run summary as printed lines.
@@ -169,6 +174,8 @@ class VideoSummary:
         ]
         if self.events is not None:
             out.append("events: " + ", ".join(f"{k} {v}" for k, v in self.events.items()) + f" -> {self.events_path}")
+        if self.setup is not None:
+            out += _setup_lines(self.setup)
         if self.truncated:
             out.append("the input ended early (truncated file): the output holds the frames that could be read")
         if self.interrupted:
@@ -177,6 +184,18 @@ class VideoSummary:
             out.append(f"note: the frames have an odd size, which H.264 cannot hold: the video is padded by one "
                        f"pixel to {self.padded[0]}x{self.padded[1]} (the last row/column repeated)")
         return out
+
+
+def _setup_lines(st: SetupState) -> list[str]:
+    """Say what the self-calibration found and how sure it is."""
+    if st.source == "default":
+        return ["set-up: self-calibration found too few straight-road frames; the default set-up was used "
+                "(run `lanefinder setup` for this camera)"]
+    out = [f"set-up: self-calibrated from {st.frames} frames ({st.updates} change(s)): horizon row "
+           f"{st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length {st.focal_px:.0f} px"]
+    if st.quality is not None:
+        out.append("set-up " + st.quality.lines()[2])
+    return out
 
 
 def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
@@ -307,6 +326,7 @@ class _Run:
 
     def frame(self, f: Frame, draw: bool) -> tuple[LaneResult, np.ndarray | None]:
         """Find one frame's lane; returns the result and, when ``draw`` asks for it, the annotated image."""
+        self.be = self.finder.birdseye((f.image.shape[1], f.image.shape[0]))  # self-calibration may change it
         result = self.finder.process(f.image)
         out = None
         on_sheet = self.counts.frames in self.sheet_at
@@ -442,7 +462,7 @@ def process_video(
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
-    finder = LaneFinder(cfg, keep_debug=debug)
+    finder = LaneFinder(cfg, keep_debug=debug, self_calibrate=selfcal_wanted(cfg))
     be = finder.birdseye(info.size)  # fails early on a size the camera cannot serve
     check_memory(cfg, info.size, frames_held=4 * _QUEUE_FRAMES)
     expected = _expected_frames(info, start_s, end_s, max_frames)
@@ -500,4 +520,5 @@ def process_video(
         truncated=ended_early, interrupted=interrupted, output=str(dst) if dst is not None else None,
         telemetry=str(telemetry) if telemetry else None, padded=sink.size if sink is not None and sink.padded else None,
         events=found, events_path=str(events) if events is not None else None,
+        setup=finder.selfcal.state if finder.selfcal is not None else None,
     )

@@ -1,0 +1,231 @@
+"""Self-calibration: the bird's-eye set-up estimated from the video itself while it runs.
+
+A :class:`SelfCalibrator` looks at one frame in ``selfcal.every_frames`` (later one in
+``refine_every_frames``), shrunk to ``work_width_px`` and undistorted, exactly as
+``lanefinder setup`` looks at a frame (:func:`lanefinder.autosetup.frame_evidence`): the
+vanishing point, the ego lines, the camera height from the lane width.  The most recent
+``window_frames`` accepted frames are combined robustly (outliers such as bumps, hills and
+lane changes refused, curved frames refused, see :func:`lanefinder.autosetup.estimate_road`)
+once ``min_frames`` are in, and again as more come.  An estimate replaces the set-up in use
+only when it reads the road differently by more than the ``change_*`` limits
+(:func:`lanefinder.evaluate.setup_error`), so a set-up that is right stays exactly as it is.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, view_from_estimate
+from .birdseye import BirdsEye, make_birdseye
+from .camera import CameraModel
+from .config import LANE_WIDTH_M, BirdseyeConfig, Config
+from .errors import LaneFinderError
+from .evaluate import setup_error
+
+__all__ = ["SelfCalibrator", "SetupState", "setup_of", "wanted"]
+
+
+@dataclass(frozen=True)
+class SetupState:
+    """Where the set-up in use comes from, and how sure it is.
+
+    Attributes
+    ----------
+    source : str
+        ``config`` (given by the config), ``default`` (self-calibration has no estimate yet)
+        or ``estimated`` (self-calibration's estimate is in use, or confirmed the set-up).
+    frames : int
+        Accepted frames the last estimate rests on.
+    updates : int
+        Times the set-up was replaced.
+    horizon_px : float
+        The horizon's row (the vanishing point's y) of the set-up in use, frame pixels.
+    height_m : float
+        The camera's height over the road it implies, m.
+    focal_px : float
+        Its focal length, frame pixels.
+    quality : SetupQuality or None
+        The last estimate's quality.
+
+    Examples
+    --------
+    >>> SetupState(source="config").updates
+    0
+    """
+
+    source: str
+    frames: int = 0
+    updates: int = 0
+    horizon_px: float = math.nan
+    height_m: float = math.nan
+    focal_px: float = math.nan
+    quality: SetupQuality | None = None
+
+
+def wanted(config: Config) -> bool:
+    """Tell whether a run with this config self-calibrates: enabled, and no set-up of its own.
+
+    Parameters
+    ----------
+    config : Config
+        The run's configuration.
+
+    Returns
+    -------
+    bool
+        True when ``selfcal.enabled`` and ``birdseye`` is the default.
+
+    Examples
+    --------
+    >>> wanted(Config()), wanted(Config.model_validate({"selfcal": {"enabled": False}}))
+    (True, False)
+    """
+    return config.selfcal.enabled and config.birdseye == BirdseyeConfig()
+
+
+def setup_of(be: BirdsEye) -> tuple[float, float, float]:
+    """Give the horizon row, camera height and focal length a bird's-eye set-up implies.
+
+    Parameters
+    ----------
+    be : BirdsEye
+        The set-up.
+
+    Returns
+    -------
+    horizon_px, height_m, focal_px : float
+        Frame pixels, metres, pixels.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> h, z, f = setup_of(LaneFinder().birdseye((1280, 720)))
+    >>> round(h), round(z, 2), round(f)
+    (419, 1.26, 1161)
+    """
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = np.asarray(be.src_px, np.float64)
+    v = np.cross(np.cross([x0, y0, 1], [x3, y3, 1]), np.cross([x1, y1, 1], [x2, y2, 1]))
+    horizon = float(v[1] / v[2]) if abs(v[2]) > 1e-12 else math.nan
+    from .birdseye import plane_pose
+
+    r1, r2, t, _ = plane_pose(be.camera.camera_matrix, be.matrix, be.xm_per_px, be.ym_per_px)
+    n = np.cross(r1, r2)
+    return horizon, float(abs(t @ n) / np.linalg.norm(n)), float(be.camera.camera_matrix[0, 0])
+
+
+class SelfCalibrator:
+    """Estimate the set-up from the frames of one video, and say when to replace the one in use.
+
+    Parameters
+    ----------
+    config : Config
+        The run's configuration (``selfcal``, ``camera``).
+    camera : CameraModel
+        The lens (its K gives the focal length unless ``camera.model`` is ``none`` without
+        ``focal_px``).
+    current : BirdsEye
+        The set-up in use at the start.
+
+    Attributes
+    ----------
+    state : SetupState
+        Where the set-up in use comes from.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> finder = LaneFinder()
+    >>> cal = SelfCalibrator(Config(), finder.camera or __import__("lanefinder").camera.udacity_camera(),
+    ...                      finder.birdseye((1280, 720)))
+    >>> cal.offer(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source
+    (True, 'default')
+    """
+
+    def __init__(self, config: Config, camera: CameraModel, current: BirdsEye):
+        self.cfg = config.selfcal
+        self.current = current
+        w, h = current.frame_size
+        s = min(1.0, self.cfg.work_width_px / w)
+        self.work = (round(w * s), round(h * s))
+        self.scale = self.work[0] / w
+        self.camera = camera.scaled_to((w, h))
+        small = camera.scaled_to(self.work)
+        self._maps = (cv2.initUndistortRectifyMap(small.camera_matrix, small.dist_coeffs, None, small.camera_matrix,
+                                                  self.work, cv2.CV_16SC2) if small.has_distortion else None)
+        self._k = (None if config.camera.model == "none" and config.camera.focal_px is None
+                   else small.camera_matrix)
+        self.opts = SetupOptions(lane_width_m=LANE_WIDTH_M, work_width_px=self.cfg.work_width_px,
+                                 dash_period_m=self.cfg.dash_period_m)
+        self._frames: deque = deque(maxlen=self.cfg.window_frames)
+        self._seen = 0
+        self._new = 0
+        horizon, height, focal = setup_of(current)
+        self.state = SetupState(source="default", horizon_px=horizon, height_m=height, focal_px=focal)
+
+    def _prepare(self, frame: np.ndarray) -> np.ndarray:
+        img = frame
+        if self.work != (frame.shape[1], frame.shape[0]):
+            img = cv2.resize(frame, self.work, interpolation=cv2.INTER_AREA)
+        if self._maps is not None:
+            img = cv2.remap(img, self._maps[0], self._maps[1], cv2.INTER_LINEAR)
+        return img
+
+    def offer(self, frame: np.ndarray) -> BirdsEye | None:
+        """Look at a frame (when it is its turn); give a new set-up when one should replace the current.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            The next raw frame, BGR.
+
+        Returns
+        -------
+        BirdsEye or None
+            The set-up to use from now on, or None to keep the current one.
+        """
+        self._seen += 1
+        every = self.cfg.every_frames if self.state.source == "default" else self.cfg.refine_every_frames
+        if (self._seen - 1) % every:
+            return None
+        und = self._prepare(frame)
+        ev = frame_evidence(und, self.opts, index=self._seen)
+        if not ev.accepted:
+            return None
+        self._frames.append((ev, cv2.cvtColor(und, cv2.COLOR_BGR2GRAY)))
+        self._new += 1
+        need = self.cfg.min_frames if self.state.source == "default" else max(1, self.cfg.min_frames // 2)
+        if len(self._frames) < self.cfg.min_frames or self._new < need:
+            return None
+        self._new = 0
+        return self._estimate()
+
+    def _estimate(self) -> BirdsEye | None:
+        try:
+            est = estimate_road([e for e, _ in self._frames], {e.index: g for e, g in self._frames}, self.work,
+                                self._k, self.opts, self.scale)
+            b, k_full, quality = view_from_estimate(est, self.current.frame_size, self.opts)
+        except LaneFinderError:
+            return None
+        cam = self.camera if self._k is not None else CameraModel.ideal(self.current.frame_size,
+                                                                        focal_px=float(k_full[0, 0]))
+        be = make_birdseye(cam, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+        err = setup_error(self.current, be)  # how the set-up in use misreads the road as now estimated
+        # A change must exceed the limits and three times the estimate's own expected error.
+        sure = self.cfg.change_sigmas
+        differs = (abs(err["xm_pct"]) > max(self.cfg.change_xm_pct, sure * quality.xm_error_pct)
+                   or abs(err["ym_pct"]) > max(self.cfg.change_ym_pct, sure * quality.ym_error_pct)
+                   or abs(err["car_m"]) > max(self.cfg.change_car_m, sure * quality.car_error_m))
+        updates = self.state.updates + differs
+        use = be if differs else self.current
+        horizon, height, focal = setup_of(use)
+        self.state = SetupState(source="estimated", frames=quality.frames_used, updates=updates,
+                                horizon_px=horizon, height_m=height, focal_px=focal, quality=quality)
+        if differs:
+            self.current = be
+            return be
+        return None
