@@ -220,6 +220,9 @@ class SelfCalibrator:
         differs = (abs(err["xm_pct"]) > max(self.cfg.change_xm_pct, sure * quality.xm_error_pct)
                    or abs(err["ym_pct"]) > max(self.cfg.change_ym_pct, sure * quality.ym_error_pct)
                    or abs(err["car_m"]) > max(self.cfg.change_car_m, sure * quality.car_error_m))
+        # ... and the estimate must itself be surer than the limits (twisty roads give wide spreads).
+        sure_enough = quality.xm_error_pct <= self.cfg.change_xm_pct and quality.car_error_m <= self.cfg.change_car_m
+        differs = differs and sure_enough
         updates = self.state.updates + differs
         use = be if differs else self.current
         horizon, height, focal = setup_of(use)

@@ -1,0 +1,80 @@
+"""Set-ups of unknown cameras: from frames without a camera file, and online while a video runs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from lanefinder.autosetup import SetupOptions, auto_setup
+from lanefinder.camera import CameraModel
+from lanefinder.config import Config
+from lanefinder.evaluate import setup_error
+from lanefinder.pipeline import LaneFinder, birdseye_from_config, camera_from_config
+from lanefinder.selfcal import wanted
+from lanefinder.synth import Mount, Renderer, Scenario
+
+
+def _camera(size: tuple[int, int], f: float) -> CameraModel:
+    w, h = size
+    return CameraModel(np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1.0]]), np.zeros(5), size,
+                       source="synthetic")
+
+
+def _truth(r: Renderer, cam: CameraModel):
+    cfg = Config.model_validate({"camera": {"model": "none"}, "birdseye": r.birdseye_config()})
+    return birdseye_from_config(cfg, cam, cam.image_size)
+
+
+# Cameras the defaults were never tuned on: sizes, focal lengths, heights and pitches.
+CAMERAS = [((960, 540), 700.0, 1.2, -1.0), ((960, 540), 1000.0, 1.6, 3.0), ((1920, 1080), 1400.0, 1.3, 0.0)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("size", "f", "height", "pitch"), CAMERAS)
+def test_frames_of_an_unknown_camera_give_its_setup_without_a_camera_file(size, f, height, pitch):
+    cam = _camera(size, f)
+    r = Renderer(cam, Mount(height_m=height, pitch_deg=pitch), Scenario("straight", width_m=(3.7, 0.0)), seed=11)
+    frames = [r.render(t) for t in np.linspace(0, 4, 8)]
+    result = auto_setup(frames, None, SetupOptions(dash_period_m=12.0))  # the renderer paints 3 m + 9 m
+    cfg = result.config()
+    assert cfg.camera.model == "none" and cfg.camera.focal_px == pytest.approx(f, rel=0.03)
+    err = setup_error(birdseye_from_config(cfg, camera_from_config(cfg, size), size), _truth(r, cam))
+    # Measured: ym within 0.6%, car within 0.01 m, xm within 0.7% on these three cameras.
+    assert abs(err["ym_pct"]) < 3 and abs(err["car_m"]) < 0.1 and abs(err["xm_pct"]) < 2
+    assert result.quality.frames_used == 8 and result.quality.car_error_m < 0.1
+
+
+def test_a_refused_frame_does_not_sink_the_set(test_images):
+    frames = [test_images["straight_lines1"], test_images["test2"], test_images["straight_lines2"]]
+    result = auto_setup(frames, None, SetupOptions(dash_period_m=14.63))
+    assert result.quality.frames_used == 2
+    assert len(result.quality.refusals) == 1 and "curves" in result.quality.refusals[0]
+    # California dashes (48 ft) give the Udacity camera's focal length (1156 px calibrated).
+    assert result.focal_px == pytest.approx(1156, rel=0.03)
+
+
+def test_self_calibration_is_asked_for_only_without_a_setup():
+    assert wanted(Config())
+    assert not wanted(Config.model_validate({"selfcal": {"enabled": False}}))
+    assert not wanted(Config.model_validate({"birdseye": {"ym_per_px": 0.05}}))
+
+
+@pytest.mark.slow
+def test_online_self_calibration_converges_within_five_seconds():
+    size, fps = (960, 540), 25
+    cam = _camera(size, 800.0)
+    r = Renderer(cam, Mount(height_m=1.5, pitch_deg=2.0), Scenario("straight", width_m=(3.7, 0.0)), seed=3)
+    finder = LaneFinder(Config(), self_calibrate=True)
+    default_width = []
+    widths = []
+    for i in range(5 * fps):
+        res = finder.process(r.render(i / fps))
+        (default_width if res.setup == "default" else widths).append(res.width_m)
+    assert finder.selfcal.state.source == "estimated" and finder.selfcal.state.updates >= 1
+    # The default set-up (another camera's) misreads this lane; the estimate reads it right.
+    assert abs(np.nanmedian(default_width) - 3.7) > 0.3
+    last = [w for w in widths[-25:] if not math.isnan(w)]
+    assert len(last) >= 20 and abs(np.median(last) - 3.7) < 0.15
+    assert finder.selfcal.state.height_m == pytest.approx(1.5, rel=0.05)
