@@ -17,10 +17,9 @@ fields after its own ``image``, ``output`` and ``ms``.
 
 from __future__ import annotations
 
-import functools
-
 import contextlib
 import csv
+import functools
 import io
 import json
 import math
