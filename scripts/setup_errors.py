@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from lanefinder import autosetup as after
+from lanefinder.birdseye import src_vanishing_point
 from lanefinder.camera import CameraModel, udacity_camera
 from lanefinder.config import Config
 from lanefinder.evaluate import setup_error
@@ -46,47 +47,30 @@ def load_before(commit: str):
     return mod
 
 
-def birdseye_of(result, size):
+def birdseye_of(result, size, camera=None):
+    """The set-up a result's config gives, with the camera file it was found with (if any)."""
     cfg = result.config()
-    return birdseye_from_config(cfg, camera_from_config(cfg, size), size)
+    return birdseye_from_config(cfg, camera if camera is not None else camera_from_config(cfg, size), size)
 
 
-def vp_of_src(src) -> np.ndarray:
-    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = src
-    l1 = np.cross([x0, y0, 1], [x3, y3, 1])
-    l2 = np.cross([x1, y1, 1], [x2, y2, 1])
-    v = np.cross(l1, l2)
-    return v[:2] / v[2]
+def video_frames(mod, path):
+    """A video's frames for the set-up (the version before took a camera it did not need)."""
+    if mod is after:
+        return after.straight_frames_from_video(path, after.SetupOptions())
+    return mod.straight_frames_from_video(path, None, mod.SetupOptions())
 
 
 def row(name, mod, frames, camera, truth_be, truth_vp, size, **opts):
     label = "file" if camera is not None else "none"
     t0 = time.perf_counter()
     try:
-        r = mod.auto_setup(frames, camera, mod.SetupOptions(**opts), camera_ref="udacity" if camera is
-                           udacity_camera_cached else ("none" if camera is None else "cam.json"))
+        r = mod.auto_setup(frames, camera, mod.SetupOptions(**opts), camera_ref=label)
     except Exception as e:  # a refusal is a result here
         return f"| {name} | {label} | refused: {str(e)[:90]} | | | | |"
-    if camera is not None and camera is not udacity_camera_cached:
-        cfg = r.config()
-        be = after.__dict__["_be_with_camera"](cfg, camera, size)
-    else:
-        be = birdseye_of(r, size)
-    err = setup_error(be, truth_be)
-    vp = np.array(r.vp)
-    dvp = float(np.hypot(*(vp - truth_vp)))
+    err = setup_error(birdseye_of(r, size, camera), truth_be)
+    dvp = float(np.hypot(*(np.array(r.vp) - truth_vp)))
     return (f"| {name} | {label} | {dvp:.1f} | {err['xm_pct']:+.1f} | {err['ym_pct']:+.1f} | {err['car_m']:+.2f} | "
             f"{r.frames_used} ({time.perf_counter() - t0:.1f} s) |")
-
-
-udacity_camera_cached = udacity_camera()
-
-
-def _be_with_camera(cfg, camera, size):
-    return birdseye_from_config(cfg, camera, size)
-
-
-after._be_with_camera = _be_with_camera  # the rows for a camera file use that camera
 
 
 def synthetic_cases(quick: bool):
@@ -113,13 +97,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="two synthetic cameras, no challenge video")
     args = ap.parse_args()
     before = load_before(args.before)
-    ucam = udacity_camera_cached
+    ucam = udacity_camera()
     default_be = birdseye_from_config(Config(), ucam, (1280, 720))
-    default_vp = vp_of_src(Config().birdseye.src)
+    default_vp = np.array(src_vanishing_point(Config().birdseye.src))
     straight = [cv2.imread(str(ROOT / f"data/test_images/straight_lines{i}.jpg")) for i in (1, 2)]
     clip = ROOT / "data/clips/project_37-47s.mp4"
     cases = [("straight_lines1/2", lambda m: straight, default_be, default_vp, (1280, 720)),
-             ("project clip", lambda m: m.straight_frames_from_video(clip, None, m.SetupOptions()), default_be,
+             ("project clip", lambda m: video_frames(m, clip), default_be,
               default_vp, (1280, 720))]
     header = ("| case | camera file | vanishing point error, px | xm error, % | ym error, % | car position error, m "
               "| frames used |\n|---|---|---|---|---|---|---|")
@@ -133,9 +117,9 @@ def main() -> None:
                     print(row(name + " (dash period 14.6 m)", mod, frames, cam, tbe, tvp, size, dash_period_m=14.63),
                           flush=True)
         if CHALLENGE.is_file() and not args.quick:
-            frames = mod.straight_frames_from_video(CHALLENGE, None, mod.SetupOptions())
-            ref = after.auto_setup(after.straight_frames_from_video(CHALLENGE, None, after.SetupOptions()), ucam)
-            tbe = birdseye_of(ref, (1280, 720))
+            frames = video_frames(mod, CHALLENGE)
+            ref = after.auto_setup(video_frames(after, CHALLENGE), ucam)
+            tbe = birdseye_of(ref, (1280, 720), ucam)
             for cam in (ucam, None):
                 print(row("challenge video", mod, frames, cam, tbe, np.array(ref.vp), (1280, 720)), flush=True)
         for name, frames, cam, tbe, tvp, size in synthetic_cases(args.quick):

@@ -1347,23 +1347,20 @@ def preview(frame: np.ndarray, result: SetupResult, camera: CameraModel | None) 
     return np.hstack([left, view])
 
 
-def straight_frames_from_video(path: str | Path, camera: CameraModel | None,
-                               opts: SetupOptions) -> list[np.ndarray]:
+def straight_frames_from_video(path: str | Path, opts: SetupOptions) -> list[np.ndarray]:
     """Take frames evenly spread over a video for the set-up (it refuses the unsuitable ones).
 
     Parameters
     ----------
     path : str or Path
         The video.
-    camera : CameraModel or None
-        The camera, if calibrated (unused here: the set-up undoes the lens).
     opts : SetupOptions
         ``video_candidates`` frames are taken, shrunk to ``work_width_px``.
 
     Returns
     -------
     list of (H, W, 3) uint8 ndarray
-        The frames, BGR, in order.
+        The raw frames (the set-up undoes the lens), BGR, in order.
 
     Raises
     ------
@@ -1373,7 +1370,7 @@ def straight_frames_from_video(path: str | Path, camera: CameraModel | None,
     Examples
     --------
     >>> opts = SetupOptions(video_candidates=5)
-    >>> len(straight_frames_from_video("data/clips/project_37-47s.mp4", None, opts))
+    >>> len(straight_frames_from_video("data/clips/project_37-47s.mp4", opts))
     5
     """
     from .video import VideoInfo, frames
@@ -1384,9 +1381,5 @@ def straight_frames_from_video(path: str | Path, camera: CameraModel | None,
     for i, f in enumerate(frames(path)):
         if i % step or len(out) >= opts.video_candidates:
             continue
-        img = f.image
-        s = min(1.0, opts.work_width_px / img.shape[1])
-        if s < 1.0:
-            img = cv2.resize(img, (round(img.shape[1] * s), round(img.shape[0] * s)), interpolation=cv2.INTER_AREA)
-        out.append(img)
+        out.append(prepare_frame(f.image, None, opts.work_width_px)[0])
     return out

@@ -11,6 +11,7 @@ raw (distorted) frame exactly: inverse homography, then the forward lens model.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -18,7 +19,7 @@ import numpy as np
 
 from .camera import CameraModel, distort_points, undistort_points
 
-__all__ = ["BirdsEye", "camera_foot_px", "make_birdseye", "plane_pose"]
+__all__ = ["BirdsEye", "camera_foot_px", "make_birdseye", "plane_pose", "setup_of", "src_vanishing_point"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,6 +226,57 @@ def camera_foot_px(camera_matrix: np.ndarray, matrix: np.ndarray, xm_per_px: flo
     gram = np.array([[r1 @ r1, r1 @ r2], [r1 @ r2, r2 @ r2]])
     x_m, y_m = np.linalg.solve(gram, -np.array([t @ r1, t @ r2]))
     return float(x_m / xm_per_px), float(y_m / ym_per_px)
+
+
+def src_vanishing_point(src_px: np.ndarray) -> tuple[float, float]:
+    """Give where the sides of a road trapezoid meet: the vanishing point of the lane lines.
+
+    Parameters
+    ----------
+    src_px : (4, 2) array_like
+        Top-left, top-right, bottom-right, bottom-left, pixels.
+
+    Returns
+    -------
+    x, y : float
+        Pixels (NaN for parallel sides).
+
+    Examples
+    --------
+    >>> src_vanishing_point([[600, 400], [680, 400], [840, 600], [440, 600]])
+    (640.0, 350.0)
+    """
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = np.asarray(src_px, np.float64)
+    v = np.cross(np.cross([x0, y0, 1], [x3, y3, 1]), np.cross([x1, y1, 1], [x2, y2, 1]))
+    if abs(v[2]) < 1e-12:
+        return math.nan, math.nan
+    return float(v[0] / v[2]), float(v[1] / v[2])
+
+
+def setup_of(be: BirdsEye) -> tuple[float, float, float]:
+    """Give the horizon row, camera height and focal length a bird's-eye set-up implies.
+
+    Parameters
+    ----------
+    be : BirdsEye
+        The set-up.
+
+    Returns
+    -------
+    horizon_px, height_m, focal_px : float
+        Frame pixels, metres, pixels.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> h, z, f = setup_of(LaneFinder().birdseye((1280, 720)))
+    >>> round(h), round(z, 2), round(f)
+    (419, 1.26, 1161)
+    """
+    horizon = src_vanishing_point(be.src_px)[1]
+    r1, r2, t, _ = plane_pose(be.camera.camera_matrix, be.matrix, be.xm_per_px, be.ym_per_px)
+    n = np.cross(r1, r2)
+    return horizon, float(abs(t @ n) / np.linalg.norm(n)), float(be.camera.camera_matrix[0, 0])
 
 
 def make_birdseye(

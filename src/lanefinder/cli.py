@@ -390,7 +390,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
                         dash_period_m=dash_period_m)
     if video_path:
         click.echo(f"looking for straight-road frames in {video_path} ...")
-        images = straight_frames_from_video(video_path, camera, opts)
+        images = straight_frames_from_video(video_path, opts)
     else:
         images = [read_image(p) for p in paths]
     ref = "none"

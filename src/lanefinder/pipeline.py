@@ -197,22 +197,20 @@ class LaneFinder:
         """Forget the track (start of a new clip, or independent images)."""
         self.track = Track()
 
-    def use_birdseye(self, be: BirdsEye, keep_track: bool = True) -> None:
+    def use_birdseye(self, be: BirdsEye) -> None:
         """Put another set-up in use for frames of its size.
+
+        The track is kept: for a set-up that differs a little (self-calibration's), the search
+        around the lines found so far allows for it; call :meth:`reset` to start afresh.
 
         Parameters
         ----------
         be : BirdsEye
             The new set-up (from :mod:`lanefinder.selfcal`, say).
-        keep_track : bool, optional
-            Keep tracking from the lines found so far (for a set-up that differs a little:
-            the search around them allows for it); False starts afresh.
         """
         self._birdseye = be
         self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
         self._farview = None
-        if not keep_track:
-            self.reset()
 
     def process(self, frame: np.ndarray) -> LaneResult:
         """Find the lane in one frame.

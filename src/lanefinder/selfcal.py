@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, view_from_estimate
-from .birdseye import BirdsEye, make_birdseye
+from .birdseye import BirdsEye, make_birdseye, setup_of
 from .camera import CameraModel
 from .config import LANE_WIDTH_M, BirdseyeConfig, Config
 from .errors import LaneFinderError
@@ -88,36 +88,6 @@ def wanted(config: Config) -> bool:
     return config.selfcal.enabled and config.birdseye == BirdseyeConfig()
 
 
-def setup_of(be: BirdsEye) -> tuple[float, float, float]:
-    """Give the horizon row, camera height and focal length a bird's-eye set-up implies.
-
-    Parameters
-    ----------
-    be : BirdsEye
-        The set-up.
-
-    Returns
-    -------
-    horizon_px, height_m, focal_px : float
-        Frame pixels, metres, pixels.
-
-    Examples
-    --------
-    >>> from lanefinder import LaneFinder
-    >>> h, z, f = setup_of(LaneFinder().birdseye((1280, 720)))
-    >>> round(h), round(z, 2), round(f)
-    (419, 1.26, 1161)
-    """
-    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = np.asarray(be.src_px, np.float64)
-    v = np.cross(np.cross([x0, y0, 1], [x3, y3, 1]), np.cross([x1, y1, 1], [x2, y2, 1]))
-    horizon = float(v[1] / v[2]) if abs(v[2]) > 1e-12 else math.nan
-    from .birdseye import plane_pose
-
-    r1, r2, t, _ = plane_pose(be.camera.camera_matrix, be.matrix, be.xm_per_px, be.ym_per_px)
-    n = np.cross(r1, r2)
-    return horizon, float(abs(t @ n) / np.linalg.norm(n)), float(be.camera.camera_matrix[0, 0])
-
-
 class SelfCalibrator:
     """Estimate the set-up from the frames of one video, and say when to replace the one in use.
 
@@ -139,9 +109,8 @@ class SelfCalibrator:
     Examples
     --------
     >>> from lanefinder import LaneFinder
-    >>> finder = LaneFinder()
-    >>> cal = SelfCalibrator(Config(), finder.camera or __import__("lanefinder").camera.udacity_camera(),
-    ...                      finder.birdseye((1280, 720)))
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> cal = SelfCalibrator(Config(), be.camera, be)
     >>> cal.offer(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source
     (True, 'default')
     """

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .birdseye import BirdsEye
+from .birdseye import BirdsEye, setup_of
 from .config import FarConfig
 from .errors import LaneFinderError
 from .farfield import row_confidence
@@ -72,11 +72,8 @@ BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
 TELEMETRY_SUFFIXES = (".csv", ".jsonl", ".parquet")
 
 
-@functools.lru_cache(maxsize=8)
-def _setup_numbers(be: BirdsEye) -> tuple[float, float, float]:
-    from .selfcal import setup_of
-
-    return setup_of(be)
+#: The set-up's horizon, camera height and focal length, once per set-up (not per row).
+_setup_numbers = functools.lru_cache(maxsize=8)(setup_of)
 
 
 def h_samples(frame_height: int) -> list[int]:
