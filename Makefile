@@ -26,9 +26,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
-# The unit tests and doctests (no full videos, no encoding, no subprocesses): under 30 s.
+# The unit tests and doctests (no full videos, no encoding, no subprocesses), on two processes: under 30 s.
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

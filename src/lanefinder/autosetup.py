@@ -1379,7 +1379,8 @@ def straight_frames_from_video(path: str | Path, opts: SetupOptions) -> list[np.
     step = max(1, info.total_frames // opts.video_candidates)
     out = []
     for i, f in enumerate(frames(path)):
-        if i % step or len(out) >= opts.video_candidates:
-            continue
-        out.append(prepare_frame(f.image, None, opts.work_width_px)[0])
+        if len(out) >= opts.video_candidates:
+            break  # nothing more to take: stop decoding
+        if i % step == 0:
+            out.append(prepare_frame(f.image, None, opts.work_width_px)[0])
     return out
