@@ -122,6 +122,9 @@ def main() -> None:
             tbe = birdseye_of(ref, (1280, 720), ucam)
             for cam in (ucam, None):
                 print(row("challenge video", mod, frames, cam, tbe, np.array(ref.vp), (1280, 720)), flush=True)
+            if mod is after:
+                print(row("challenge video (dash period 14.6 m)", mod, frames, None, tbe, np.array(ref.vp),
+                          (1280, 720), dash_period_m=14.63), flush=True)
         for name, frames, cam, tbe, tvp, size in synthetic_cases(args.quick):
             for c in (cam, None):
                 print(row(name, mod, frames, c, tbe, tvp, size, dash_period_m=12.0), flush=True)

@@ -33,7 +33,9 @@ def fleet_dir(tmp_path_factory):
     shutil.copy(CHALLENGE, d / "in" / "challenge.mp4")
     shutil.copy(HARDER, d / "in" / "harder.mp4")
     (d / "in" / "broken.mp4").write_bytes(b"not a video" * 100)
-    run_batch([d / "in"], d / "out", workers=1, progress=False)
+    # Warnings 0.4 m before a wheel reaches a line, so the short clips hold events to jump to.
+    cfg = Config.model_validate({"events": {"warning_margin_m": 0.4}})
+    run_batch([d / "in"], d / "out", cfg, workers=1, progress=False)
     return d / "out"
 
 

@@ -75,6 +75,8 @@ __all__ = [
     "view_from_estimate",
 ]
 
+#: Relative error of a dash period found on fewer than three line profiles (not measurable).
+_FEW_PROFILES_ERROR = 0.1
 
 @dataclass(frozen=True)
 class SetupOptions:
@@ -869,7 +871,7 @@ def dash_period_m(profiles: Sequence[np.ndarray], step_m: float, opts: SetupOpti
     -------
     (period_m, relative_error, count) or None
         The period, its relative standard error (from the profiles' own peaks when three or
-        more have one, else the step) and how many profiles it rests on; None without one.
+        more have one, else 10%) and how many profiles it rests on; None without one.
 
     Examples
     --------
@@ -907,8 +909,10 @@ def dash_period_m(profiles: Sequence[np.ndarray], step_m: float, opts: SetupOpti
     period = lag * step_m
     own = [x for x in (_first_peak(ac, int(0.7 * lag), int(1.4 * lag) + 1, opts.min_dash_correlation)
                        for ac in acs) if x is not None]
+    # With fewer than three profiles the spread cannot be measured: a misread dash pattern is
+    # then as likely as not, and the error stated is a tenth of the period.
     err = (1.2533 * _spread(np.array(own) * step_m) / period / math.sqrt(len(own)) if len(own) >= 3
-           else step_m / period)
+           else _FEW_PROFILES_ERROR)
     return float(period), float(max(err, step_m / period / 2)), len(clean)
 
 
@@ -1008,10 +1012,14 @@ def _outliers(evidence: list[FrameEvidence], k: np.ndarray, width_px: int, opts:
 
 
 def _dash_focal(evidence: list[FrameEvidence], grays: dict[int, np.ndarray], k: np.ndarray,
-                opts: SetupOptions) -> tuple[np.ndarray, float, int]:
-    """Correct K's focal length until the dashes repeat every ``dash_period_m``; with its relative error."""
+                opts: SetupOptions, corrected: bool = False) -> tuple[np.ndarray, float, int]:
+    """Correct K's focal length until the dashes repeat every ``dash_period_m``; with its relative error.
+
+    With ``corrected`` (K already corrected once, on a larger set of frames) the period is only
+    looked for near ``dash_period_m``, so that a multiple of it is not taken for it.
+    """
     k = k.copy()
-    expected, found = None, None
+    expected, found = (opts.dash_period_m if corrected else None), None
     for _ in range(4):
         profiles = []
         for e in evidence:
@@ -1127,11 +1135,11 @@ def estimate_road(evidence: Sequence[FrameEvidence], grays: dict[int, np.ndarray
 
     check(ev)
     focal_sigma, source = 0.0, "camera file"
-    for _ in range(2):
+    for attempt in range(2):
         ev = _refuse(ev, _outliers(ev, k, w, opts))
         check(ev)
         if not known:
-            k, focal_sigma, n = _dash_focal(ev, grays, k, opts)
+            k, focal_sigma, n = _dash_focal(ev, grays, k, opts, corrected=attempt > 0)
             source = f"dash period ({n} dashed-line profile(s), {opts.dash_period_m} m)"
         ev, bad = _curved(ev, grays, k, opts)
         ev = _refuse(ev, bad)

@@ -42,6 +42,7 @@ Window = tuple[int, int, int, int, bool]
 
 # Fewest pixels a window may ask for, whatever the scale (a window of 3 pixels is noise).
 _MIN_WINDOW_PIXELS = 3
+_FULL_WINDOW = 3  # a window with this many times min_pixels is trusted fully when recentring
 # Width (columns) of the box filter on a segment's histogram; a peak's sum is its mean times this.
 _SEGMENT_BLUR_PX = 5
 
@@ -471,7 +472,10 @@ def _windows_for(px: Pixels, base: float | None, cfg: SearchParams, shear: float
         windows.append((int(x_c - cfg.margin_px), y_lo, int(x_c + cfg.margin_px), y_hi, bool(found)))
         if found:
             parts.append(sel + sl.start)
-            new_x = float(xs[sel].mean())
+            # A window barely over the minimum (a fleck of clutter) moves the centre only
+            # in part; a well-filled one sets it.
+            trust = min(1.0, sel.size / (_FULL_WINDOW * cfg.min_pixels))
+            new_x = x_c + trust * (float(xs[sel].mean()) - x_c)
             # Follow a bend: the drift between consecutive found windows carries on upwards.
             # Until two windows in a row have been found, the starting slope stands; after a
             # gap (a found window before this one, but not just below it), the drift restarts.
