@@ -36,12 +36,12 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench.py $(if $(wildcard ../shared/data/udacity/videos/project_video.mp4),--memory ../shared/data/udacity/videos/project_video.mp4)
 
-# Held-out seeds (never used for tuning); `eval-tune` is the tuning seed.
+# Held-out seeds (never used for tuning), looks and cameras drawn from each seed; `eval-tune` the tuning seeds.
 eval: $(STAMP)
 	$(BIN)/python scripts/eval_synthetic.py --frames 50 --seeds 101 102
 
 eval-tune: $(STAMP)
-	$(BIN)/python scripts/eval_synthetic.py --frames 100 --seeds 0 --out output/eval-tune
+	$(BIN)/python scripts/eval_synthetic.py --frames 50 --seeds 0 1 2 --out output/eval-tune
 
 # Lane events against synthetic truth (held-out seeds 101-103).
 eval-events: $(STAMP)

@@ -1,16 +1,25 @@
 """Measure lanefinder against synthetic ground truth, scenario by scenario (`make eval`).
 
     python scripts/eval_synthetic.py [--frames 50] [--seeds 101 102] [--out output/eval] [--only NAME ...]
+                                     [--fixed] [--config CFG] [--reuse]
 
 For each scenario and seed: render the sequence (lanefinder.synth), run the video job with the
 sequence's exact bird's-eye set-up (telemetry only), and score all the seeds' frames together
 with lanefinder.evaluate. Two tables: TuSimple accuracy, FP, FN, offset error (median, p90),
 curvature error, relative radius error where R < 1 km and the catastrophic-frame rate; then the
-accuracy by distance band (0-20, 20-40, 40-70, 70+ m ahead) and the lateral error of the lines
-6 m and 20 m ahead (median, p90).
+accuracy by distance band (0-20, 20-40, 40-70, 70+ m ahead), the lateral error of the lines
+6 m and 20 m ahead (median, p90) and the share of frames with paint in view but no lane.
 
-Seeds: tuning uses seed 0 (`make eval-tune`); `make eval` reports seeds 101 and 102, which no
-tuning has used. The truth runs as far as each marking is visible (at least 1.5 px wide).
+Each sequence's look (asphalt or concrete, light, paint, dash pattern, what bounds the lane,
+clutter, vehicles), lane width and camera mount (height 1.1-1.6 m, pitch, yaw) are drawn from
+its seed (`lanefinder synth --randomise`); `--fixed` renders each scenario's fixed look instead.
+Seeds: tuning uses seeds 0-2 (`make eval-tune`); `make eval` reports seeds 101 and 102, which no
+tuning has used. The truth runs as far as each marking is visible (at least 1.5 px wide) and
+leaves out paint hidden behind a vehicle.
+
+`--config CFG` runs the pipeline with that config's settings (the sequences' own camera and
+set-up still apply): `--config before.toml` with an older setting gives a before/after on the same
+scenes. `--reuse` keeps sequences already rendered in the output folder.
 """
 
 from __future__ import annotations
@@ -21,17 +30,29 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from lanefinder.config import load_config
+from lanefinder.config import Config, load_config
 from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
 from lanefinder.synth import SCENARIOS, write_sequence
 from lanefinder.videojob import process_video
 
 
-def run(name: str, frames: int, seeds: list[int], out: Path):
+def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool) -> Path:
+    """Render a sequence, or keep the one in ``folder`` when it was made the same way."""
+    meta = folder / "scenario.json"
+    if reuse and meta.is_file() and (folder / "gt.jsonl").is_file():
+        m = json.loads(meta.read_text())
+        if m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise:
+            return folder
+    return write_sequence(name, frames, folder, seed, randomise=randomise)
+
+
+def run(name: str, frames: int, seeds: list[int], out: Path, base: Config, randomise: bool = True,
+        reuse: bool = False):
     gt, pred = {}, {}
     for seed in seeds:
-        folder = write_sequence(name, frames, out / f"{name}-{seed}", seed)
-        cfg = load_config(folder / "config.toml")
+        folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse)
+        own = load_config(folder / "config.toml")
+        cfg = base.model_copy(update={"camera": own.camera, "birdseye": own.birdseye})
         process_video(folder / "video.mp4", None, cfg, telemetry=folder / "telemetry.jsonl", progress=False)
         gt.update({f"{seed}/{k}": v for k, v in read_ground_truth(folder / "gt.jsonl").items()})
         pred.update({f"{seed}/{k}": v for k, v in read_predictions(folder / "telemetry.jsonl").items()})
@@ -44,10 +65,15 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[101, 102])
     ap.add_argument("--out", type=Path, default=Path("output/eval"))
     ap.add_argument("--only", action="append", choices=list(SCENARIOS))
+    ap.add_argument("--fixed", action="store_true",
+                    help="the fixed look and camera mount of each scenario instead of a look drawn from the seed")
+    ap.add_argument("--config", type=Path, help="pipeline settings (the sequences' camera and set-up still apply)")
+    ap.add_argument("--reuse", action="store_true", help="keep sequences already rendered under --out")
     a = ap.parse_args()
+    base = load_config(a.config) if a.config else Config()
     results = {}
     for name in a.only or SCENARIOS:
-        results[name] = run(name, a.frames, a.seeds, a.out)
+        results[name] = run(name, a.frames, a.seeds, a.out, base, randomise=not a.fixed, reuse=a.reuse)
         head, row = results[name].table(name).split("\n")
         if len(results) == 1:
             print(head)
@@ -58,7 +84,8 @@ def main() -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     (a.out / "report.json").write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
-    print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}; report: {a.out / 'report.json'}")
+    look = "fixed look" if a.fixed else "look and camera drawn from each seed"
+    print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}, {look}; report: {a.out / 'report.json'}")
     return 0
 
 

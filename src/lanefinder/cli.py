@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -299,7 +300,8 @@ def plot(telemetry: str, output: str) -> None:
 # -- synth / eval ------------------------------------------------------------------------
 @main.command()
 @click.option("--scenario", default="straight", show_default=True,
-              help="straight, curve, shadows, pavement, glare, worn, double-yellow, sharp-curve.")
+              help="straight, curve, shadows, pavement, glare, worn, double-yellow, curve-entry, sharp-curve, "
+                   "lane-change, drift (see --list).")
 @click.option("--frames", "n_frames", type=click.IntRange(1, 100000), default=100, show_default=True)
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True)
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (default: the Udacity camera).")
@@ -308,15 +310,18 @@ def plot(telemetry: str, output: str) -> None:
 @click.option("-o", "--outdir", type=click.Path(), help="Folder for the sequence (required unless --list).")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--randomise", is_flag=True,
+              help="Draw the road's look (surface, light, paint, dashes, clutter, vehicles), the lane width and "
+                   "the camera mount (height 1.1-1.6 m, pitch, yaw) from the seed.")
 def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, height_m: float | None,
-          pitch_deg: float | None, outdir: str, list_only: bool, quiet: bool) -> None:
+          pitch_deg: float | None, outdir: str, list_only: bool, quiet: bool, randomise: bool) -> None:
     """Render a synthetic dashcam sequence with exact ground truth.
 
     Writes video.mp4, gt.jsonl (per frame: curvature, radius, offset, width, TuSimple lanes),
     camera.json and config.toml (the exact bird's-eye set-up, for `lanefinder video -c`).
     """
     from .camera import load_camera
-    from .synth import SCENARIOS, Mount, write_sequence
+    from .synth import SCENARIOS, Appearance, Mount, write_sequence
 
     if list_only:
         for s in SCENARIOS.values():
@@ -324,11 +329,12 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
         return
     if outdir is None:
         raise LaneFinderError("give the folder for the sequence with -o/--outdir")
-    mount = Mount()
-    mount = Mount(height_m if height_m is not None else mount.height_m,
-                  pitch_deg if pitch_deg is not None else mount.pitch_deg)
+    mount = Appearance.random(seed).mount if randomise else Mount()
+    if height_m is not None or pitch_deg is not None or not randomise:
+        mount = replace(mount, height_m=height_m if height_m is not None else mount.height_m,
+                        pitch_deg=pitch_deg if pitch_deg is not None else mount.pitch_deg)
     cam = load_camera(camera_path) if camera_path else None
-    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet)
+    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet, randomise=randomise)
     click.echo(f"wrote {out}/video.mp4, gt.jsonl, camera.json, config.toml")
 
 

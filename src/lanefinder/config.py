@@ -251,6 +251,12 @@ class RidgeConfig(_Section):
         Least yellowness (red - blue) above the road on both sides.
     yellow_min : int
         Least yellowness of a yellow marking pixel.
+    noise_factor : float
+        Least lightness above the road as a multiple of the texture around the pixel (the mean
+        top-hat of a patch ``noise_patch_m`` wide and a tenth of the view tall: rough asphalt and
+        grass raise it, smooth pavement lowers it); 0 turns it off.
+    noise_patch_m : float
+        Width of that patch across the road, metres.
 
     Examples
     --------
@@ -263,6 +269,8 @@ class RidgeConfig(_Section):
     rel_contrast: Annotated[float, Field(ge=0)] = 0.18
     yellow_min_contrast: Byte = 18
     yellow_min: Byte = 30
+    noise_factor: Annotated[float, Field(ge=0, le=20)] = 5.0
+    noise_patch_m: PositiveFloat = 1.5
 
 
 class ThresholdConfig(_Section):
@@ -565,6 +573,9 @@ class FarConfig(_Section):
     strip_m : float
         Half-width of the strip around each line's extension that is looked at, m: how far
         the marking may stray from the near fit's extension.
+    noise_factor : float
+        The ridge threshold's texture test in the far strips (``threshold.ridge.noise_factor``
+        there): far markings are a pixel or two wide and the strips hold little road besides.
 
     Examples
     --------
@@ -581,6 +592,7 @@ class FarConfig(_Section):
     confidence_decay_m: Annotated[float, Field(gt=0, le=1000)] = 40.0
     width_factor: Annotated[float, Field(ge=1, le=8)] = 6.0
     strip_m: Annotated[float, Field(gt=0.5, le=20)] = 3.0
+    noise_factor: Annotated[float, Field(ge=0, le=20)] = 0.0
 
 
 class RenderConfig(_Section):

@@ -179,6 +179,9 @@ class EvalReport:
     lateral_err_6m_median, lateral_err_6m_p90, lateral_err_20m_median, lateral_err_20m_p90 : float or None
         Lateral error of the lines 6 m and 20 m ahead, m, where the truth gives ``lateral``
         and a prediction reaches that row.
+    no_lane_rate : float or None
+        Share of the frames whose truth shows at least one line where the prediction shows no
+        lane at all ("lost" while paint is visible); None when no truth frame shows a line.
 
     Examples
     --------
@@ -205,6 +208,7 @@ class EvalReport:
     lateral_err_6m_p90: float | None = None
     lateral_err_20m_median: float | None = None
     lateral_err_20m_p90: float | None = None
+    no_lane_rate: float | None = None
 
     def table(self, name: str = "") -> str:
         """Format the figures as a two-line table.
@@ -232,7 +236,7 @@ class EvalReport:
         return head + "\n" + row
 
     def band_table(self, name: str = "", header: bool = True) -> str:
-        """Format the accuracy by distance band and the lateral errors as a table.
+        """Format the accuracy by distance band, the lateral errors and the no-lane rate as a table.
 
         Parameters
         ----------
@@ -252,10 +256,11 @@ class EvalReport:
 
         bands = list(self.band_accuracy) or [_band_name(b) for b in BANDS_M]
         head = f"{'':<14} " + " ".join(f"{'acc ' + b + ' m':>12}" for b in bands) + \
-            f" {'lat 6m med':>10} {'lat 6m p90':>10} {'lat 20m med':>11} {'lat 20m p90':>11}"
+            f" {'lat 6m med':>10} {'lat 6m p90':>10} {'lat 20m med':>11} {'lat 20m p90':>11} {'no lane':>7}"
         row = f"{name:<14} " + " ".join(f"{f(self.band_accuracy.get(b), '.4f'):>12}" for b in bands) + \
             f" {f(self.lateral_err_6m_median, '.3f'):>10} {f(self.lateral_err_6m_p90, '.3f'):>10}" \
-            f" {f(self.lateral_err_20m_median, '.3f'):>11} {f(self.lateral_err_20m_p90, '.3f'):>11}"
+            f" {f(self.lateral_err_20m_median, '.3f'):>11} {f(self.lateral_err_20m_p90, '.3f'):>11}" \
+            f" {f(self.no_lane_rate, '.3f'):>7}"
         return (head + "\n" + row) if header else row
 
 
@@ -415,12 +420,15 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
     off_err, k_err, r_rel = [], [], []
     lat: dict[str, list[float]] = {"6": [], "20": []}
     band_hits = np.zeros(len(BANDS_M)), np.zeros(len(BANDS_M))
-    catastrophic = missing = 0
+    catastrophic = missing = no_lane = with_line = 0
     for key, g in gt.items():
         p = pred.get(key)
         if p is None:
             missing += 1
         lanes = p["lanes"] if p else []
+        if g["lanes"]:
+            with_line += 1
+            no_lane += not lanes
         a, f_p, f_n = bench_frame(lanes, g["lanes"], g["h_samples"], float(p.get("run_time", 0) or 0) if p else 0)
         acc, fp, fn = acc + a, fp + f_p, fn + f_n
         bad = not lanes or _lines_far_off(g["lanes"], lanes)
@@ -445,7 +453,8 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
                                      for b, h, t in zip(BANDS_M, hits, totals, strict=True)},
                       band_points={_band_name(b): int(t) for b, t in zip(BANDS_M, totals, strict=True)},
                       lateral_err_6m_median=_med(lat["6"]), lateral_err_6m_p90=_p90(lat["6"]),
-                      lateral_err_20m_median=_med(lat["20"]), lateral_err_20m_p90=_p90(lat["20"]))
+                      lateral_err_20m_median=_med(lat["20"]), lateral_err_20m_p90=_p90(lat["20"]),
+                      no_lane_rate=no_lane / with_line if with_line else None)
 
 
 def _med(v: list[float]) -> float | None:

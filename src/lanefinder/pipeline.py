@@ -16,7 +16,7 @@ import numpy as np
 
 from .birdseye import BirdsEye, make_birdseye
 from .camera import CameraModel, load_camera, udacity_camera
-from .config import Config
+from .config import Config, ThresholdConfig
 from .errors import LaneFinderError
 from .farfield import FarView, follow_line, make_farview
 from .geometry import Scale, lane_geometry, poly_x
@@ -246,6 +246,13 @@ class LaneFinder:
             self.use_birdseye(new)  # from the next frame on
         return replace(result, setup=self.selfcal.state.source)
 
+    def _far_threshold(self) -> ThresholdConfig:
+        """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``)."""
+        t = self.config.threshold
+        if t.ridge.noise_factor == self.config.far.noise_factor:
+            return t
+        return t.model_copy(update={"ridge": t.ridge.model_copy(update={"noise_factor": self.config.far.noise_factor})})
+
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
 
@@ -281,7 +288,7 @@ class LaneFinder:
                 continue
             # Only a strip around the line's extension is mapped and thresholded.
             strip, col0 = fv.strip(frame, poly_x(line.fit_px, fv.v_px) - fv.u0_px, half)
-            far_binary = threshold(strip, self.config.threshold, be.xm_per_px)
+            far_binary = threshold(strip, self._far_threshold(), be.xm_per_px)
             far = follow_line(far_binary, fv, line.fit_px, be.xm_per_px, cfg, col0)
             if far is not None:
                 lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,

@@ -41,15 +41,19 @@ from .telemetry import h_samples as tusimple_rows
 
 __all__ = [
     "DASH_M",
+    "DASH_PATTERNS_M",
     "GAP_M",
     "LATERAL_AT_M",
+    "LEFT_KINDS",
     "MARKING_M",
     "SCENARIOS",
+    "Appearance",
     "Conditions",
     "FrameTruth",
     "Mount",
     "Renderer",
     "Scenario",
+    "Vehicle",
     "level_to_camera",
     "manoeuvre_shift",
     "write_sequence",
@@ -73,6 +77,8 @@ class Mount:
         Height above the road, m.
     pitch_deg : float
         Pitch down, degrees.
+    yaw_deg : float
+        Yaw to the right of the car's heading, degrees.
 
     Examples
     --------
@@ -84,6 +90,7 @@ class Mount:
     # Negative: looking slightly up, as the Udacity camera does (its vanishing row 418.6 is
     # below its principal point 389.4).
     pitch_deg: float = -1.44
+    yaw_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -116,6 +123,182 @@ class Conditions:
     glare: bool = False
     worn: bool = False
     double_yellow: bool = False
+
+
+#: Dash and gap lengths (m) a randomised road draws from: US 10/30 ft, the same in metres,
+#: UK motorway 2 m/7 m, German Autobahn 6 m/12 m, city 3 m/6 m.
+DASH_PATTERNS_M = ((3.0, 9.0), (3.05, 9.15), (2.0, 7.0), (6.0, 12.0), (3.0, 6.0))
+#: What lies left of the ego lane: a solid yellow line, a double yellow line, a dashed white
+#: line with another lane beyond it, or the road's edge with no paint.
+LEFT_KINDS = ("yellow", "double-yellow", "white-dashed", "edge")
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A vehicle ahead: the rear of a box on the road, moving with the traffic.
+
+    Attributes
+    ----------
+    lane : int
+        Its lane: 0 the ego lane's first lane, 1 the lane to its right, -1 the lane to its left.
+    z0_m : float
+        Distance ahead at t = 0, m.
+    closing_mps : float
+        How fast it comes closer, m/s (negative: it pulls away); it wraps within 12-90 m.
+    grey : float
+        Its body's grey level, 0-255.
+
+    Examples
+    --------
+    >>> Vehicle(lane=0, z0_m=40.0, closing_mps=1.0, grey=60.0).lane
+    0
+    """
+
+    lane: int
+    z0_m: float
+    closing_mps: float
+    grey: float
+
+    def z_at(self, t: float) -> float:
+        """Give its distance ahead at a time.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        float
+            Distance ahead of the camera, m (within 12-90 m).
+
+        Examples
+        --------
+        >>> Vehicle(lane=0, z0_m=40.0, closing_mps=2.0, grey=60.0).z_at(5.0)
+        30.0
+        """
+        return 12.0 + (self.z0_m - 12.0 - self.closing_mps * t) % 78.0
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """How the road looks: surface, light, paint and clutter.  The default is the fixed look.
+
+    Attributes
+    ----------
+    surface_grey, texture_contrast : float
+        The surface's mean grey level (asphalt about 60-110, concrete 140-185) and its grain.
+    tint : tuple of float
+        Multipliers of the B, G, R channels (the light's and surface's colour).
+    concrete_joints : bool
+        Dark transverse joints every 4.5 m (concrete slabs).
+    gain : float
+        Exposure: every road pixel is multiplied by it.
+    shadow_darkness : float
+        What a shadow leaves of the light (0.3 deep, 0.6 soft).
+    shadow_skew : float
+        The sun's angle: tree shadows are sheared by this much across per metre along.
+    white, yellow : tuple of float
+        The paint colours, BGR.
+    paint : float
+        Paint coverage, 0-1 (faded paint below 1).
+    marking_m : float
+        Marking width, m.
+    dash_m, gap_m : float
+        A dashed line's dash and gap, m.
+    left : str
+        What bounds the ego lane on the left (one of ``LEFT_KINDS``).
+    right_edge_paint : bool
+        Whether the road's right edge (beyond the lane to the right) is painted.
+    missing_dashes : float
+        Share of dashes missing altogether.
+    streaks : float
+        Darkening of the tyre tracks (wheel paths), grey levels.
+    tar_seams : float
+        Darkening of sealed cracks ("tar snakes") and a longitudinal joint, grey levels.
+    seam_rel_m : float
+        Where the longitudinal joint runs, m from the lane centre.
+    vehicles : tuple of Vehicle
+        Vehicles ahead.
+
+    Examples
+    --------
+    >>> a = Appearance.random(101)
+    >>> 3.0 <= a.lane_width_m <= 3.9 and 1.1 <= a.mount.height_m <= 1.6
+    True
+    >>> Appearance().left
+    'yellow'
+    """
+
+    surface_grey: float = 88.0
+    texture_contrast: float = 7.0
+    tint: tuple[float, float, float] = (0.97, 1.0, 1.02)
+    concrete_joints: bool = False
+    gain: float = 1.0
+    shadow_darkness: float = 0.38
+    shadow_skew: float = 0.0
+    white: tuple[float, float, float] = (228.0, 228.0, 228.0)
+    yellow: tuple[float, float, float] = (35.0, 185.0, 225.0)
+    paint: float = 1.0
+    marking_m: float = 0.15
+    dash_m: float = 3.0
+    gap_m: float = 9.0
+    left: str = "yellow"
+    right_edge_paint: bool = True
+    missing_dashes: float = 0.0
+    streaks: float = 0.0
+    tar_seams: float = 0.0
+    seam_rel_m: float = 0.35
+    vehicles: tuple[Vehicle, ...] = ()
+    lane_width_m: float | None = None
+    mount: Mount = field(default_factory=Mount)
+
+    @classmethod
+    def random(cls, seed: int) -> Appearance:
+        """Draw a road's look, lane width and camera mount from a seed.
+
+        Asphalt or concrete, exposure and tint, shadow depth and sun angle, paint colour, width,
+        fading and dash pattern, what bounds the lane on the left, whether the road edge is
+        painted, tyre streaks, tar seams, up to two vehicles ahead; lane width 3.0-3.9 m; the
+        camera 1.1-1.6 m high, pitched -4 to +1 degrees and yawed within 2 degrees.
+
+        Parameters
+        ----------
+        seed : int
+            The seed.
+
+        Returns
+        -------
+        Appearance
+            The look (with ``lane_width_m`` and ``mount`` set).
+        """
+        rng = np.random.default_rng([seed, 0x5EED])
+        concrete = bool(rng.random() < 0.3)
+        grey = float(rng.uniform(140, 185) if concrete else rng.uniform(60, 110))
+        # Paint is brighter than the pavement it is on: at least 45 grey levels (on light concrete
+        # as on asphalt), however faded it is drawn on top of that.
+        white_level = float(rng.uniform(max(185.0, grey + 45), 250))
+        dash, gap = DASH_PATTERNS_M[int(rng.integers(len(DASH_PATTERNS_M)))]
+        vehicles = tuple(
+            Vehicle(lane=int(rng.integers(-1, 2)), z0_m=float(rng.uniform(15, 85)),
+                    closing_mps=float(rng.uniform(-3, 3)), grey=float(rng.uniform(20, 160)))
+            for _ in range(int(rng.integers(0, 3))))
+        return cls(
+            surface_grey=grey, texture_contrast=float(rng.uniform(4, 12)),
+            tint=(float(rng.uniform(0.92, 1.04)), 1.0, float(rng.uniform(0.98, 1.1))),
+            concrete_joints=concrete, gain=float(rng.uniform(0.75, 1.25)),
+            shadow_darkness=float(rng.uniform(0.3, 0.6)), shadow_skew=float(rng.uniform(-0.8, 0.8)),
+            white=(white_level, white_level, white_level * float(rng.uniform(0.97, 1.0))),
+            yellow=(float(rng.uniform(20, 80)), float(rng.uniform(160, 210)), float(rng.uniform(200, 240))),
+            paint=float(rng.uniform(0.55, 1.0)), marking_m=float(rng.uniform(0.10, 0.20)),
+            dash_m=dash, gap_m=gap, left=LEFT_KINDS[int(rng.choice(4, p=[0.45, 0.15, 0.25, 0.15]))],
+            right_edge_paint=bool(rng.random() < 0.75), missing_dashes=float(rng.choice([0.0, 0.1, 0.25])),
+            streaks=float(rng.uniform(0, 18)), tar_seams=float(rng.uniform(0, 35)),
+            seam_rel_m=float(rng.uniform(-1.2, 1.2)), vehicles=vehicles,
+            lane_width_m=float(rng.uniform(3.0, 3.9)),
+            mount=Mount(height_m=float(rng.uniform(1.1, 1.6)), pitch_deg=float(rng.uniform(-4.0, 1.0)),
+                        yaw_deg=float(rng.uniform(-2.0, 2.0))),
+        )
 
 
 @dataclass(frozen=True)
@@ -225,6 +408,9 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
              description="worn and missing markings"),
     Scenario("double-yellow", curvature=(-1 / 1000, 0.0), conditions=Conditions(double_yellow=True),
              description="double yellow centre line"),
+    Scenario("curve-entry", curvature=(1 / 500, 1 / 500), heading=(0.0, 0.006), offset_m=(0.1, 0.3),
+             period_s=5.0, conditions=Conditions(tree_shadows=True),
+             description="curves (R down to 250 m) beginning and ending in tree shadow, with lateral drift"),
     Scenario("sharp-curve", speed_mps=12.0, curvature=(1 / 90, 1 / 400), curvature_rate=(0.0, 2e-4),
              offset_m=(0.0, 0.2), width_m=(3.5, 0.1), period_s=6.0, description="sharp curves, R 70-130 m"),
     # Lane events (events_gt.jsonl): wheels 1.8 m apart; with a 3.7 m lane a wheel reaches a line
@@ -303,13 +489,17 @@ class FrameTruth:
         return d
 
 
-def level_to_camera(pitch_deg: float) -> np.ndarray:
-    """Give the rotation from the car's level frame to the camera frame for a pitch.
+def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
+    """Give the rotation from the car's level frame to the camera frame for a pitch and a yaw.
+
+    The camera is turned by the yaw (about the level frame's vertical), then pitched.
 
     Parameters
     ----------
     pitch_deg : float
         Pitch down, degrees.
+    yaw_deg : float, optional
+        Yaw to the right, degrees.
 
     Returns
     -------
@@ -321,8 +511,12 @@ def level_to_camera(pitch_deg: float) -> np.ndarray:
     >>> level_to_camera(0.0).tolist()
     [[1.0, 0.0, 0.0], [0.0, 1.0, -0.0], [0.0, 0.0, 1.0]]
     """
-    p = math.radians(pitch_deg)
-    return np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
+    p, q = math.radians(pitch_deg), math.radians(yaw_deg)
+    pitch = np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
+    if q == 0.0:
+        return pitch
+    yaw = np.array([[math.cos(q), 0, -math.sin(q)], [0, 1, 0], [math.sin(q), 0, math.cos(q)]])
+    return pitch @ yaw
 
 
 class Renderer:
@@ -342,6 +536,9 @@ class Renderer:
         The ground truth's reference distance and the view's far end, m.
     supersample : int, optional
         Samples per pixel along each axis.
+    appearance : Appearance, optional
+        The road's look (default: the fixed look); its ``mount`` and ``lane_width_m`` are not
+        used here (see :func:`write_sequence`).
 
     Examples
     --------
@@ -353,10 +550,12 @@ class Renderer:
     """
 
     def __init__(self, camera: CameraModel, mount: Mount, scenario: Scenario, seed: int = 0,
-                 z_near: float = 6.0, z_far: float = 35.0, supersample: int = 2):
+                 z_near: float = 6.0, z_far: float = 35.0, supersample: int = 2,
+                 appearance: Appearance | None = None):
         self.camera, self.mount, self.sc = camera, mount, scenario
+        self.look = appearance or Appearance()
         self.z_near, self.z_far = z_near, z_far
-        self.rot = level_to_camera(mount.pitch_deg)
+        self.rot = level_to_camera(mount.pitch_deg, mount.yaw_deg)
         w, h = camera.image_size
         rng = np.random.default_rng(seed)
         self.texture = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 1.5)
@@ -365,6 +564,10 @@ class Renderer:
         self.blobs = (self.blobs - self.blobs.mean()) / (self.blobs.std() + 1e-6)
         self.wear = rng.random(4096).astype(np.float32)
         self.dash_phase = float(rng.uniform(0, DASH_M + GAP_M))
+        if self.look.tar_seams > 0:
+            cracks = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 5)
+            cracks = (cracks - cracks.mean()) / (cracks.std() + 1e-6)
+            self.cracks = (np.abs(cracks) < 0.06).astype(np.float32)  # thin meandering contours
         # Rays of every sub-pixel sample of the distorted frame, once.
         s = supersample
         xs = (np.arange(w * s) + 0.5) / s - 0.5
@@ -505,15 +708,27 @@ class Renderer:
             y, xs = self._line_image_at(g, z)
             lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
                                  "x": [round(x, 2) for x in xs]}
+        left = self._line_rows(g, -0.5, rows)
+        right = self._line_rows(g, 0.5, rows)
+        if self.look.left == "edge" and self.ego_lane(self.geometry(t)) == 0:
+            left = [-2.0] * len(rows)  # no paint: nothing to label
+        if self.look.vehicles:
+            left, right = self._unoccluded(t, self.geometry(t), rows, left), self._unoccluded(
+                t, self.geometry(t), rows, right)
         return FrameTruth(index, round(t, 4), float(k), float(1 / abs(k)) if abs(k) > 1e-9 else None,
-                          float(-self.centre(g, z0)), float(g["width"]), rows,
-                          self._line_rows(g, -0.5, rows), self._line_rows(g, 0.5, rows),
+                          float(-self.centre(g, z0)), float(g["width"]), rows, left, right,
                           self._row_distances(rows), lateral)
+
+    def _unoccluded(self, t: float, g: dict, rows: list[int], xs: list[float]) -> list[float]:
+        """Drop the truth points hidden behind a vehicle (-2 there)."""
+        polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, g)]
+        return [x if x < 0 or not any(cv2.pointPolygonTest(p, (x, float(r)), False) >= 0 for p in polys) else -2.0
+                for x, r in zip(xs, rows, strict=True)]
 
     @property
     def visible_m(self) -> float:
         """Give the farthest distance at which a marking is at least 1.5 px wide, m (at most 150 m)."""
-        return float(min(150.0, self.camera.camera_matrix[0, 0] * MARKING_M / 1.5))
+        return float(min(150.0, self.camera.camera_matrix[0, 0] * self.look.marking_m / 1.5))
 
     def _row_distances(self, rows: list[int]) -> list[float]:
         """Give the distance ahead (m) of the road seen at each row's centre column; -1 above the road."""
@@ -592,67 +807,118 @@ class Renderer:
             The frame, BGR.
         """
         g = self.geometry(t)
-        c = self.sc.conditions
+        c, look = self.sc.conditions, self.look
         X, Z, ground = self.X, self.Z, self.ground
         Zc = np.where(ground, Z, 0).astype(np.float32)
         xc = self.centre(g, Zc).astype(np.float32)
         rel = (X - xc).astype(np.float32)  # lateral position relative to the lane centre
         u = (Zc + g["travelled"]).astype(np.float32)  # distance along the road, anchored to it
-        half = g["width"] / 2
+        width = g["width"]
+        half = width / 2
         tex = self._tex(rel + 100, u, self.texture, 24, 10)
-        base = np.float32(88) + 7 * tex
+        base = np.float32(look.surface_grey) + np.float32(look.texture_contrast) * tex
         if c.pavement_changes:
             concrete = (np.floor(u / 35.0) % 2) == 1
             base = np.where(concrete, np.float32(165) + 6 * tex, base)
         if c.seams:
             base = base + np.where(rel > 0.35, np.float32(-22), np.float32(0)) + np.where(
                 np.abs(rel + 0.9) < 0.04, np.float32(-35), np.float32(0))
-        off_road = (rel < -half - 1.2) | (rel > 1.5 * g["width"] + 1.5)
-        img = np.stack([base * 0.97, base, base * 1.02], axis=-1).astype(np.float32)
+        if look.concrete_joints:
+            base = base - np.where((u % 4.5) < 0.06, np.float32(30), np.float32(0))
+        if look.streaks > 0:
+            in_lane = (rel + half) % width - half  # each lane's own wheel paths
+            base = base - np.float32(look.streaks) * (np.exp(-((np.abs(in_lane) - 0.85) / 0.25) ** 2))
+        if look.tar_seams > 0:
+            crack = self._tex(rel + 37, u, self.cracks, 18, 6)
+            joint = np.abs(rel - look.seam_rel_m) < 0.05
+            base = base - np.float32(look.tar_seams) * np.maximum(crack, joint.astype(np.float32))
+        left_edge = {"white-dashed": -1.5 * width, "edge": -half}.get(look.left, -half)
+        off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > 1.5 * width + 1.5)
+        tint = look.tint
+        img = np.stack([base * tint[0], base * tint[1], base * tint[2]], axis=-1).astype(np.float32)
         img[off_road] = np.stack([60 + 10 * tex[off_road], 95 + 12 * tex[off_road], 100 + 10 * tex[off_road]], -1)
+        period = look.dash_m + look.gap_m
 
         def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
-                  width: float = MARKING_M) -> None:
+                  width: float = look.marking_m) -> None:
             d = np.abs(rel - centre_rel)
             # Coverage of the marking within this sample (smooth edge over ~1.5 cm).
             cov = np.clip((width / 2 - d) / 0.015 + 0.5, 0, 1)
             if dashed:
-                cov = cov * (((u + self.dash_phase) % (DASH_M + GAP_M)) < DASH_M)
+                cov = cov * (((u + self.dash_phase) % period) < look.dash_m)
+                if look.missing_dashes > 0:
+                    gone = self.wear[((u + self.dash_phase) / period).astype(np.int64) % self.wear.size]
+                    cov = cov * (gone >= look.missing_dashes)
             if c.worn:
                 holes = self.wear[(u * 2).astype(np.int64) % self.wear.size] < 0.25
                 cov = cov * np.where(holes, 0.0, 0.55)
                 missing = self.wear[(u / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2
                 cov = cov * ~missing if dashed else cov
-            a = (cov * alpha)[..., None].astype(np.float32)
+            a = (cov * (alpha * look.paint))[..., None].astype(np.float32)
             np.multiply(img, 1 - a, out=img)
             np.add(img, a * np.asarray(color, np.float32), out=img)
 
-        yellow, white = (35.0, 185.0, 225.0), (228.0, 228.0, 228.0)
-        if c.double_yellow:
+        yellow, white = look.yellow, look.white
+        if c.double_yellow or look.left == "double-yellow":
             paint(-half - 0.1, yellow, False, width=0.1)
             paint(-half + 0.1, yellow, False, width=0.1)
-        else:
+        elif look.left == "white-dashed":
+            paint(-half, white, True)
+            paint(-1.5 * width, white, False)
+        elif look.left == "yellow":
             paint(-half, yellow, False)
         paint(half, white, True)
-        paint(1.5 * g["width"], white, False)
+        if look.right_edge_paint:
+            paint(1.5 * width, white, False)
         shade = np.ones(rel.shape, np.float32)
         if c.tree_shadows:
-            blob = self._tex(rel + 50, u, self.blobs, 1.2, 0.6)
-            shade = np.where(blob > 0.5, np.float32(0.38), shade)
+            blob = self._tex(rel + 50 + look.shadow_skew * u, u, self.blobs, 1.2, 0.6)
+            shade = np.where(blob > 0.5, np.float32(look.shadow_darkness), shade)
         if c.bridge_shadow:
             shade = np.where((u % 90.0) < 14.0, np.float32(0.3), shade)
+        if look.gain != 1.0:
+            shade = shade * np.float32(look.gain)
         img *= shade[..., None]
         img[~ground] = self.sky_band[~ground]
         w, h = self.size
         out = self.sky_full.copy()
         s = self.s
         out[self.r0 // s:] = cv2.resize(img, (w, h - self.r0 // s), interpolation=cv2.INTER_AREA)
+        for grey, poly in self.vehicles(t, g):
+            cv2.fillPoly(out, [np.round(poly).astype(np.int32)], (grey, grey, grey * 1.05), cv2.LINE_AA)
         if c.glare:
             yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
             cx, cy = w * (0.55 + 0.1 * math.sin(t)), h * 0.62
             glow = np.exp(-(((xx - cx) / (0.4 * w)) ** 2 + ((yy - cy) / (0.25 * h)) ** 2))
             out = out * 1.45 + 170 * glow[..., None]
         return np.clip(out, 0, 255).astype(np.uint8)
+
+    def vehicles(self, t: float, g: dict) -> list[tuple[float, np.ndarray]]:
+        """Give the vehicles ahead as image polygons, far to near (the order to draw them).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        g : dict
+            From :meth:`geometry` at ``t``.
+
+        Returns
+        -------
+        list of (float, (4, 2) ndarray)
+            Each vehicle's grey level and the corners of its rear in the distorted frame, pixels.
+        """
+        out = []
+        h_cam = self.mount.height_m
+        rvec, _ = cv2.Rodrigues(self.rot)
+        for v in sorted(self.look.vehicles, key=lambda v: -v.z_at(t)):
+            z = v.z_at(t)
+            x = float(self.centre(g, z)) + v.lane * g["width"]
+            pts = np.array([[x - 0.9, h_cam, z], [x + 0.9, h_cam, z], [x + 0.9, h_cam - 1.5, z],
+                            [x - 0.9, h_cam - 1.5, z]])
+            img, _ = cv2.projectPoints(pts, rvec, np.zeros(3), self.camera.camera_matrix, self.camera.dist_coeffs)
+            out.append((v.grey, img.reshape(-1, 2)))
+        return out
 
     def frames(self, n: int, fps: float = 25.0) -> Iterator[tuple[np.ndarray, FrameTruth]]:
         """Render a sequence.
@@ -706,7 +972,7 @@ class Renderer:
 
 def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,
                    camera: CameraModel | None = None, mount: Mount | None = None, fps: int = 25,
-                   progress: bool = False) -> Path:
+                   progress: bool = False, randomise: bool = False) -> Path:
     """Write a synthetic sequence: video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json.
 
     ``events_gt.jsonl`` holds the true lane events: :func:`lanefinder.events.detect_events`
@@ -730,6 +996,9 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         Frame rate, frames/s.
     progress : bool, optional
         Show a progress bar.
+    randomise : bool, optional
+        Draw the road's look, the lane width and the camera mount from the seed
+        (:meth:`Appearance.random`); ``mount``, when given, still wins.
 
     Returns
     -------
@@ -769,7 +1038,10 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     inputs = [source] if source else []
     check_outputs([out / n for n in ("video.mp4", "gt.jsonl", "events_gt.jsonl", "camera.json", "config.toml",
                                      "scenario.json")], inputs)  # before any rendering
-    renderer = Renderer(cam, mount or Mount(), scenario, seed)
+    look = Appearance.random(seed) if randomise else Appearance()
+    if randomise:
+        scenario = replace(scenario, width_m=(look.lane_width_m, min(scenario.width_m[1], 0.1)))
+    renderer = Renderer(cam, mount or look.mount, scenario, seed, appearance=look)
     w, h = cam.image_size
     info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
     rows, truth_rows = [], []
@@ -800,5 +1072,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
             del described["manoeuvres"]  # scenario.json as before manoeuvres existed
         meta = {"scenario": described, "seed": seed, "frames": n_frames, "fps": fps,
                 "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
+        if randomise:
+            meta["appearance"] = {k: v for k, v in asdict(look).items() if k not in ("mount", "lane_width_m")}
         atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n", outputs=outs)
     return out

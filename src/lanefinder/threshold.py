@@ -128,6 +128,13 @@ def ycrcb(image: np.ndarray, cfg: YcrcbConfig) -> np.ndarray:
     return (_in_range(gx, cfg.ycrcb_y_grad) | _in_range(yuv_y, cfg.yuv_y) | _in_range(r, cfg.rgb_r)).astype(np.uint8)
 
 
+#: Top-hat values above this count as this much when measuring the texture (a marking's own
+#: contrast must not raise its threshold much).
+_GRAIN_CAP = 16
+#: The texture patch is this fraction of the view's height tall (3 m of a 30 m view).
+_GRAIN_ROWS = 10
+
+
 def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
     """Find markings as horizontal ridges of lightness (white and yellow) or of yellowness.
 
@@ -136,7 +143,9 @@ def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
     window keeps only features narrower than the window and brighter than the road on
     *both* sides.  A shadow edge or a pavement seam is a one-sided step: its top-hat is zero.
     The lightness test is relative to the local road level, so a line in shade passes and
-    sunlit texture does not.  Right for the bird's-eye image of any road; the default.
+    sunlit texture does not, and to the texture around the pixel (``noise_factor`` times the
+    mean top-hat of a patch ``noise_patch_m`` wide), so the grain of rough asphalt, cracks
+    and grass does not.  Right for the bird's-eye image of any road; the default.
 
     Parameters
     ----------
@@ -167,6 +176,12 @@ def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
     top = cv2.subtract(light, road)
     # contrast > max(min_contrast, rel_contrast * road): one fused integer comparison.
     need = cv2.max(cv2.convertScaleAbs(road, alpha=cfg.rel_contrast), int(cfg.min_contrast))
+    if cfg.noise_factor > 0:
+        # The texture around each pixel: the mean top-hat over a patch (capped, so that a
+        # marking inside the patch raises it little), times noise_factor.
+        box = (max(3, round(cfg.noise_patch_m / xm_per_px)) | 1, max(3, image.shape[0] // _GRAIN_ROWS) | 1)
+        grain = cv2.boxFilter(cv2.min(top, _GRAIN_CAP), -1, box, borderType=cv2.BORDER_REFLECT)
+        need = cv2.max(need, cv2.convertScaleAbs(grain, alpha=cfg.noise_factor))
     white = cv2.compare(top, need, cv2.CMP_GT)
     ytop = cv2.subtract(yellow, cv2.morphologyEx(yellow, cv2.MORPH_OPEN, kernel))
     yel = cv2.compare(ytop, int(cfg.yellow_min_contrast), cv2.CMP_GT) & cv2.compare(
