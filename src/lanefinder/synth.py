@@ -790,8 +790,8 @@ class Renderer:
 
     # -- appearance -------------------------------------------------------------------------
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
-        n = tile.shape[0]
-        return tile[(a * sa).astype(np.int64) % n, (b * sb).astype(np.int64) % n]
+        m = tile.shape[0] - 1  # tiles are a power of two wide: "& m" is "% (m + 1)", also below zero
+        return tile[(a * sa).astype(np.int32) & m, (b * sb).astype(np.int32) & m]
 
     def render(self, t: float) -> np.ndarray:
         """Render the distorted frame at a time.
@@ -835,28 +835,34 @@ class Renderer:
         left_edge = {"white-dashed": -1.5 * width, "edge": -half}.get(look.left, -half)
         off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > 1.5 * width + 1.5)
         tint = look.tint
-        img = np.stack([base * tint[0], base * tint[1], base * tint[2]], axis=-1).astype(np.float32)
-        img[off_road] = np.stack([60 + 10 * tex[off_road], 95 + 12 * tex[off_road], 100 + 10 * tex[off_road]], -1)
+        grass = ((60, 10), (95, 12), (100, 10))  # B, G, R: level and grain off the road
+        img = np.stack([np.where(off_road, lvl + k * tex, base * t) for (lvl, k), t in zip(grass, tint, strict=True)],
+                       axis=-1).astype(np.float32)
         period = look.dash_m + look.gap_m
 
         def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
                   width: float = look.marking_m) -> None:
-            d = np.abs(rel - centre_rel)
+            d = np.abs(rel - centre_rel).ravel()
+            # Only the samples the marking covers at all are shaded.
+            idx = np.flatnonzero(d < width / 2 + 0.0075)
+            if idx.size == 0:
+                return
+            d, uu = d[idx], u.ravel()[idx]
             # Coverage of the marking within this sample (smooth edge over ~1.5 cm).
             cov = np.clip((width / 2 - d) / 0.015 + 0.5, 0, 1)
             if dashed:
-                cov = cov * (((u + self.dash_phase) % period) < look.dash_m)
+                cov = cov * (((uu + self.dash_phase) % period) < look.dash_m)
                 if look.missing_dashes > 0:
-                    gone = self.wear[((u + self.dash_phase) / period).astype(np.int64) % self.wear.size]
+                    gone = self.wear[((uu + self.dash_phase) / period).astype(np.int64) % self.wear.size]
                     cov = cov * (gone >= look.missing_dashes)
             if c.worn:
-                holes = self.wear[(u * 2).astype(np.int64) % self.wear.size] < 0.25
+                holes = self.wear[(uu * 2).astype(np.int64) % self.wear.size] < 0.25
                 cov = cov * np.where(holes, 0.0, 0.55)
-                missing = self.wear[(u / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2
+                missing = self.wear[(uu / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2
                 cov = cov * ~missing if dashed else cov
-            a = (cov * (alpha * look.paint))[..., None].astype(np.float32)
-            np.multiply(img, 1 - a, out=img)
-            np.add(img, a * np.asarray(color, np.float32), out=img)
+            a = (cov * (alpha * look.paint))[:, None].astype(np.float32)
+            flat = img.reshape(-1, 3)
+            flat[idx] = flat[idx] * (1 - a) + a * np.asarray(color, np.float32)
 
         yellow, white = look.yellow, look.white
         if c.double_yellow or look.left == "double-yellow":
