@@ -528,21 +528,17 @@ def vanishing_point(segments: np.ndarray, iterations: int = 500, tol_px: float =
     lines /= np.hypot(lines[:, 0], lines[:, 1])[:, None]
     left = (p2[:, 0] - p1[:, 0]) * (p2[:, 1] - p1[:, 1]) < 0
     rng = np.random.default_rng(seed)
-    best, best_score = None, -1.0
-    for _ in range(iterations):
-        i, j = rng.choice(len(lines), 2, replace=False, p=w / w.sum())
-        v = np.cross(lines[i], lines[j])
-        if abs(v[2]) < 1e-9:
-            continue
-        v = v / v[2]
-        near = np.abs(lines @ v) < tol_px
-        # Lane lines lean both ways into the vanishing point: a point that only one side's
-        # segments pass through (one line and a kerb, a car, a shadow) scores low.
-        score = math.sqrt(w[near & left].sum() * w[near & ~left].sum())
-        if score > best_score:
-            best, best_score = v, score
-    if best is None:
+    pairs = np.array([rng.choice(len(lines), 2, replace=False, p=w / w.sum()) for _ in range(iterations)])
+    cands = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    meet = np.abs(cands[:, 2]) >= 1e-9
+    if not meet.any():
         raise LaneFinderError("the line segments do not meet: not a straight-road frame")
+    cands = cands[meet] / cands[meet, 2:3]
+    near = np.abs(lines @ cands.T) < tol_px  # (segments, candidates)
+    # Lane lines lean both ways into the vanishing point: a point that only one side's
+    # segments pass through (one line and a kerb, a car, a shadow) scores low.
+    score = np.sqrt((w * left) @ near * ((w * ~left) @ near))
+    best = cands[int(np.argmax(score))]
     inl = np.abs(lines @ best) < tol_px * 2
     a = lines[inl, :2] * w[inl, None]
     b = -lines[inl, 2] * w[inl]

@@ -679,7 +679,11 @@ class SelfCalConfig(_Section):
     enabled : bool
         Estimate the set-up from the video when the config gives none.
     every_frames : int
-        While too few frames are in, look at one frame in this many.
+        While too few frames are in, look at one frame in this many (for the first
+        ``fast_frames`` frames at most).
+    fast_frames : int
+        After this many frames, or once there is an estimate, the slow rate applies (a road that
+        gives no estimate, curved all along, is not looked at closely for ever).
     refine_every_frames : int
         Afterwards, one in this many (slow refinement).
     min_frames : int
@@ -706,6 +710,7 @@ class SelfCalConfig(_Section):
 
     enabled: bool = True
     every_frames: Annotated[int, Field(ge=1, le=1000)] = 4
+    fast_frames: Annotated[int, Field(ge=0, le=1_000_000)] = 250
     refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 25
     min_frames: Annotated[int, Field(ge=1, le=1000)] = 8
     window_frames: Annotated[int, Field(ge=1, le=1000)] = 40

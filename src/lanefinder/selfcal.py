@@ -158,7 +158,8 @@ class SelfCalibrator:
             The set-up to use from now on, or None to keep the current one.
         """
         self._seen += 1
-        every = self.cfg.every_frames if self.state.source == "default" else self.cfg.refine_every_frames
+        fast = self.state.source == "default" and self._seen <= self.cfg.fast_frames
+        every = self.cfg.every_frames if fast else self.cfg.refine_every_frames
         if (self._seen - 1) % every:
             return None
         und = self._prepare(frame)
