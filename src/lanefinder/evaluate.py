@@ -92,6 +92,8 @@ def line_accuracy(pred: np.ndarray, gt: np.ndarray, thresh: float) -> float:
     >>> line_accuracy([100, 130, -2], [105, 100, -2], 20.0)
     0.6666666666666666
     """
+    if len(gt) == 0:  # a lane with no sample rows has no point to hit
+        return 0.0
     pred = np.where(np.asarray(pred, float) >= 0, pred, -100.0)
     gt = np.where(np.asarray(gt, float) >= 0, gt, -100.0)
     return float(np.sum(np.abs(pred - gt) < thresh) / len(gt))
