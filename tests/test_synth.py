@@ -152,6 +152,7 @@ def test_randomised_looks_cover_the_ranges_asked_for():
     assert Appearance.random(7) == Appearance.random(7) and Appearance.random(7) != Appearance.random(8)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 10])
 def test_randomised_truth_sits_on_the_paint_with_the_camera_turned(camera, seed):
     look = replace(Appearance.random(seed), left="yellow", vehicles=(), tar_seams=0.0, streaks=0.0, paint=1.0)
@@ -168,6 +169,7 @@ def test_randomised_truth_sits_on_the_paint_with_the_camera_turned(camera, seed)
         assert 12 <= h <= 38 and s > 90, (x, y, hsv[y, round(x)])  # on the yellow paint
 
 
+@pytest.mark.slow
 def test_a_vehicle_ahead_hides_the_truth_behind_it_and_a_bare_edge_has_none(camera):
     look = replace(Appearance(), vehicles=(Vehicle(lane=0, z0_m=20.0, closing_mps=0.0, grey=40.0),))
     r = Renderer(camera, Mount(), SCENARIOS["straight"], appearance=look)

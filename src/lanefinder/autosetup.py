@@ -77,6 +77,9 @@ __all__ = [
 
 #: Relative error of a dash period found on fewer than three line profiles (not measurable).
 _FEW_PROFILES_ERROR = 0.1
+#: The ridge settings the set-up finds markings with: the default ones without the texture test
+#: (a patch in metres means nothing in the perspective frame, whose scale varies with the row).
+_SETUP_RIDGE = ThresholdConfig().ridge.model_copy(update={"noise_factor": 0.0})
 
 @dataclass(frozen=True)
 class SetupOptions:
@@ -550,9 +553,7 @@ def _ray_votes(undistorted: np.ndarray, vp: np.ndarray, y_b: float,
                opts: SetupOptions) -> tuple[np.ndarray, np.ndarray]:
     """Vote the marking pixels onto the bottom row along rays from the vanishing point."""
     w = undistorted.shape[1]
-    # The perspective frame's scale varies with the row: the texture test (a patch in metres) is left out.
-    mask = ridge(undistorted, ThresholdConfig().ridge.model_copy(update={"noise_factor": 0.0}),
-                 xm_per_px=opts.marking_width_m / max(5, w / 50))
+    mask = ridge(undistorted, _SETUP_RIDGE, xm_per_px=opts.marking_width_m / max(5, w / 50))
     y0 = int(vp[1] + opts.vote_start_fraction * (y_b - vp[1]))
     ys, xs = np.nonzero(mask[y0:int(y_b)])
     ys = ys + y0

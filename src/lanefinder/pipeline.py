@@ -158,6 +158,7 @@ class LaneFinder:
         self._birdseye: BirdsEye | None = None
         self._measurer: Measurer | None = None
         self._farview: tuple[BirdsEye, FarView | None] | None = None
+        self._far_cfg: tuple[Config, ThresholdConfig] | None = None
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
         """Return the (cached) bird's-eye set-up for a frame size.
@@ -247,11 +248,13 @@ class LaneFinder:
         return replace(result, setup=self.selfcal.state.source)
 
     def _far_threshold(self) -> ThresholdConfig:
-        """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``)."""
-        t = self.config.threshold
-        if t.ridge.noise_factor == self.config.far.noise_factor:
-            return t
-        return t.model_copy(update={"ridge": t.ridge.model_copy(update={"noise_factor": self.config.far.noise_factor})})
+        """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
+        if self._far_cfg is None or self._far_cfg[0] is not self.config:
+            t, nf = self.config.threshold, self.config.far.noise_factor
+            far = t if t.ridge.noise_factor == nf else t.model_copy(
+                update={"ridge": t.ridge.model_copy(update={"noise_factor": nf})})
+            self._far_cfg = (self.config, far)
+        return self._far_cfg[1]
 
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).

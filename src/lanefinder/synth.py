@@ -697,7 +697,7 @@ class Renderer:
             Curvature, radius, offset and width at ``z_near``; line x at the TuSimple rows; all of
             the ego lane (the lane that holds the camera).
         """
-        g = self.ego_geometry(g)
+        road, g = g, self.ego_geometry(g)
         z0 = self.z_near
         d1 = g["heading"] + g["curvature"] * z0 + g["curvature_rate"] / 2 * z0**2
         d2 = g["curvature"] + g["curvature_rate"] * z0
@@ -710,18 +710,18 @@ class Renderer:
                                  "x": [round(x, 2) for x in xs]}
         left = self._line_rows(g, -0.5, rows)
         right = self._line_rows(g, 0.5, rows)
-        if self.look.left == "edge" and self.ego_lane(self.geometry(t)) == 0:
+        if self.look.left == "edge" and self.ego_lane(road) == 0:
             left = [-2.0] * len(rows)  # no paint: nothing to label
         if self.look.vehicles:
-            left, right = self._unoccluded(t, self.geometry(t), rows, left), self._unoccluded(
-                t, self.geometry(t), rows, right)
+            polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, road)]
+            left, right = self._unoccluded(polys, rows, left), self._unoccluded(polys, rows, right)
         return FrameTruth(index, round(t, 4), float(k), float(1 / abs(k)) if abs(k) > 1e-9 else None,
                           float(-self.centre(g, z0)), float(g["width"]), rows, left, right,
                           self._row_distances(rows), lateral)
 
-    def _unoccluded(self, t: float, g: dict, rows: list[int], xs: list[float]) -> list[float]:
-        """Drop the truth points hidden behind a vehicle (-2 there)."""
-        polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, g)]
+    @staticmethod
+    def _unoccluded(polys: list[np.ndarray], rows: list[int], xs: list[float]) -> list[float]:
+        """Drop the truth points hidden behind a vehicle's polygon (-2 there)."""
         return [x if x < 0 or not any(cv2.pointPolygonTest(p, (x, float(r)), False) >= 0 for p in polys) else -2.0
                 for x, r in zip(xs, rows, strict=True)]
 
