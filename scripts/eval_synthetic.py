@@ -14,7 +14,7 @@ Each sequence's look (asphalt or concrete, light, paint, dash pattern, what boun
 clutter, vehicles), lane width and camera mount (height 1.1-1.6 m, pitch, yaw) are drawn from
 its seed (`lanefinder synth --randomise`); `--fixed` renders each scenario's fixed look instead.
 Seeds: tuning uses seeds 0-2 (`make eval-tune`); `make eval` reports seeds 101 and 102, which no
-tuning has used. The truth runs as far as each marking is visible (at least 1.5 px wide) and
+tuning has used. The truth runs as far as each marking is visible (its farthest paint at least 1.5 px wide) and
 leaves out paint hidden behind a vehicle.
 
 `--config CFG` runs the pipeline with that config's settings (the sequences' own camera and

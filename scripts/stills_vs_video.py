@@ -50,8 +50,7 @@ def own_setup(src: Path, cfg: Config) -> Config:
 
 def _still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> tuple[bool, bool, float]:
     """Find one still blind; whether it has a lane, whether it agrees, and its accuracy."""
-    finder.reset()
-    result = finder.process(image)
+    result = finder.process_still(image)
     row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])))
     lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
     acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])

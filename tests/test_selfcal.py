@@ -78,3 +78,18 @@ def test_online_self_calibration_converges_within_five_seconds():
     last = [w for w in widths[-25:] if not math.isnan(w)]
     assert len(last) >= 20 and abs(np.median(last) - 3.7) < 0.15
     assert finder.selfcal.state.height_m == pytest.approx(1.5, rel=0.05)
+
+
+@pytest.mark.slow
+def test_a_still_of_a_camera_mounted_otherwise_is_seen_with_its_own_setup(test_images):
+    from lanefinder.camera import udacity_camera
+
+    cam = udacity_camera()  # the default camera's lens, mounted higher and pitched down
+    r = Renderer(cam, Mount(height_m=1.5, pitch_deg=1.0), Scenario("straight", width_m=(3.7, 0.0)), seed=5)
+    still = r.render(1.0)
+    plain, own = LaneFinder().process(still), LaneFinder().process_still(still)
+    assert plain.setup == "config" and own.setup == "estimated"
+    # Measured: 4.68 m with the default set-up, 3.7 m with the still's own.
+    assert abs(plain.width_m - 3.7) > 0.5 and abs(own.width_m - 3.7) < 0.1
+    # ... and a still of the camera the default set-up was made for keeps it.
+    assert LaneFinder().process_still(test_images["straight_lines2"]).setup == "default"

@@ -185,3 +185,18 @@ def test_a_vehicle_ahead_hides_the_truth_behind_it_and_a_bare_edge_has_none(came
     edge = Renderer(camera, Mount(), SCENARIOS["straight"], appearance=replace(Appearance(), left="edge"))
     t = edge.truth(0, 0.0, edge.geometry(0.0))
     assert all(x < 0 for x in t.left_x) and any(x >= 0 for x in t.right_x)
+
+
+def test_a_line_with_no_paint_in_view_has_no_truth_and_a_dashed_one_ends_at_its_farthest_dash(camera):
+    gone = Renderer(camera, Mount(), SCENARIOS["straight"], appearance=replace(Appearance(), missing_dashes=1.0))
+    t = gone.truth(0, 0.0, gone.geometry(0.0))
+    assert all(x < 0 for x in t.right_x) and any(x >= 0 for x in t.left_x)  # every dash missing; the solid left stays
+    # Dashes 3 m long every 12 m: the truth ends at the farthest dash in view, not at the end of visibility.
+    r = Renderer(camera, Mount(), SCENARIOS["straight"])
+    g = r.geometry(0.0)
+    z = np.geomspace(0.5, r.visible_m, 1500)
+    painted = z[r.paint_along(z + g["travelled"], dashed=True) > 0]
+    t = r.truth(0, 0.0, g)
+    far_row = min(h for h, x in zip(t.h_samples, t.right_x, strict=True) if x >= 0)
+    row, _ = r._line_image_at(g, float(painted.max()))
+    assert abs(far_row - row) <= 10  # TuSimple rows are 10 px apart

@@ -701,6 +701,15 @@ class SelfCalConfig(_Section):
         ... and by more than this many of the estimate's expected errors.
     dash_period_m : float
         Dash plus gap, m, for the focal length without one (12.2: US federal; 14.6: California).
+    stills : bool
+        ``lanefinder image`` estimates each still's own set-up from the still alone (one
+        straight frame is enough when the focal length is known) ...
+    still_height_m : tuple of float
+        ... and takes it when the camera height it implies (from the lane width) is in this
+        range, m (one frame cannot tell a hill from a camera pitched otherwise) ...
+    still_max_car_m : float
+        ... and it places the car at most this far from where the set-up in use does, m (one
+        frame cannot tell a car off its lane's centre from a camera turned).
 
     Examples
     --------
@@ -720,6 +729,15 @@ class SelfCalConfig(_Section):
     change_car_m: Annotated[float, Field(gt=0, le=5)] = 0.08
     change_sigmas: Annotated[float, Field(ge=0, le=100)] = 3.0
     dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
+    stills: bool = True
+    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 2.0)
+    still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.3
+
+    @model_validator(mode="after")
+    def _check_heights(self) -> SelfCalConfig:
+        if self.still_height_m[0] > self.still_height_m[1]:
+            raise ValueError("still_height_m must be (lowest, highest)")
+        return self
 
 
 class BatchConfig(_Section):

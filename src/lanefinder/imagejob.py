@@ -142,9 +142,8 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
             dest = out / name
             try:  # an image that cannot be read or served is reported, and the others go on
                 frame = read_image(p)
-                finder.reset()
                 t0 = time.perf_counter()
-                result = finder.process(frame)
+                result = finder.process_still(frame)
                 ms = (time.perf_counter() - t0) * 1000
                 be = finder.birdseye((frame.shape[1], frame.shape[0]))
             except LaneFinderError as e:

@@ -24,7 +24,8 @@ from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measurer, measure
 from .search import Pixels
-from .selfcal import SelfCalibrator
+from .selfcal import SelfCalibrator, still_setup
+from .selfcal import wanted as selfcal_wanted
 from .threshold import threshold
 from .tracking import Track, Verdict, step
 
@@ -159,6 +160,7 @@ class LaneFinder:
         self._measurer: Measurer | None = None
         self._farview: tuple[BirdsEye, FarView | None] | None = None
         self._far_cfg: tuple[Config, ThresholdConfig] | None = None
+        self._config_birdseye: BirdsEye | None = None
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
         """Return the (cached) bird's-eye set-up for a frame size.
@@ -246,6 +248,53 @@ class LaneFinder:
         if new is not None:
             self.use_birdseye(new)  # from the next frame on
         return replace(result, setup=self.selfcal.state.source)
+
+    def process_still(self, frame: np.ndarray) -> LaneResult:
+        """Find the lane in a single still, blind: no track, and the still's own set-up when it gives one.
+
+        With a config that has no set-up of its own (:func:`lanefinder.selfcal.wanted`) and
+        ``selfcal.stills``, the still is first looked at as a one-frame video
+        (:func:`lanefinder.selfcal.still_setup`); its set-up is used for this still only.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            The still, BGR (raw, with lens distortion).
+
+        Returns
+        -------
+        LaneResult
+            As :meth:`process`; ``setup`` is ``estimated`` when the still's own set-up was used,
+            ``default`` when it gave none, ``config`` when the config has a set-up.
+
+        Raises
+        ------
+        LaneFinderError
+            As :meth:`process`.
+
+        Examples
+        --------
+        >>> import cv2
+        >>> r = LaneFinder().process_still(cv2.imread("data/test_images/straight_lines1.jpg"))
+        >>> r.lane_found, r.setup
+        (True, 'default')
+        """
+        self.reset()
+        if not (selfcal_wanted(self.config) and self.config.selfcal.stills):
+            return self.process(frame)
+        if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
+                or frame.dtype != np.uint8 or 0 in frame.shape):
+            raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+        size = (frame.shape[1], frame.shape[0])
+        if self._config_birdseye is None or self._config_birdseye.frame_size != size:
+            self._birdseye = None
+            self._config_birdseye = self.birdseye(size)
+        elif self._birdseye is not self._config_birdseye:
+            self.use_birdseye(self._config_birdseye)
+        own = still_setup(frame, self.config, self._config_birdseye)
+        if own is not None:
+            self.use_birdseye(own)
+        return replace(self.process(frame), setup="default" if own is None else "estimated")
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""

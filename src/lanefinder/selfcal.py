@@ -27,7 +27,7 @@ from .config import LANE_WIDTH_M, BirdseyeConfig, Config
 from .errors import LaneFinderError
 from .evaluate import setup_error
 
-__all__ = ["SelfCalibrator", "SetupState", "setup_of", "wanted"]
+__all__ = ["SelfCalibrator", "SetupState", "setup_of", "still_setup", "wanted"]
 
 
 @dataclass(frozen=True)
@@ -202,3 +202,46 @@ class SelfCalibrator:
             self.current = be
             return be
         return None
+
+
+def still_setup(frame: np.ndarray, config: Config, current: BirdsEye) -> BirdsEye | None:
+    """Estimate a single still's own set-up from the still alone, as a one-frame video.
+
+    The still must be accepted as ``lanefinder setup`` accepts a frame (a vanishing point, two
+    ego lines, a straight road) and the estimate must be sure by the ``selfcal`` limits.  It is
+    taken only when it differs from ``current`` by more than those limits, puts the camera at a
+    height within ``selfcal.still_height_m`` and moves the car by no more than
+    ``selfcal.still_max_car_m`` (one frame cannot tell a hill from a camera pitched otherwise,
+    or a car off the lane's centre from a camera turned).
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8 ndarray
+        The still, BGR, raw (with lens distortion).
+    config : Config
+        The configuration (``selfcal``; the focal length as for self-calibration).
+    current : BirdsEye
+        The set-up the still would otherwise be seen with, for its size.
+
+    Returns
+    -------
+    BirdsEye or None
+        The still's own set-up, or None to keep ``current``.
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> still_setup(np.zeros((720, 1280, 3), np.uint8), Config(), be) is None
+    True
+    """
+    one = config.selfcal.model_copy(update={"min_frames": 1, "every_frames": 1, "fast_frames": 1})
+    cal = SelfCalibrator(config.model_copy(update={"selfcal": one}), current.camera, current)
+    new = cal.offer(frame)
+    if new is None:
+        return None
+    low, high = config.selfcal.still_height_m
+    moved_m = abs(setup_error(current, new)["car_m"])
+    if not low <= cal.state.height_m <= high or moved_m > config.selfcal.still_max_car_m:
+        return None
+    return new

@@ -708,10 +708,9 @@ class Renderer:
             y, xs = self._line_image_at(g, z)
             lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
                                  "x": [round(x, 2) for x in xs]}
-        left = self._line_rows(g, -0.5, rows)
-        right = self._line_rows(g, 0.5, rows)
-        if self.look.left == "edge" and self.ego_lane(road) == 0:
-            left = [-2.0] * len(rows)  # no paint: nothing to label
+        kinds = self.ego_paint(road)
+        left = self._line_rows(g, -0.5, rows, kinds[0])
+        right = self._line_rows(g, 0.5, rows, kinds[1])
         if self.look.vehicles:
             polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, road)]
             left, right = self._unoccluded(polys, rows, left), self._unoccluded(polys, rows, right)
@@ -750,12 +749,16 @@ class Renderer:
         img = img.reshape(-1, 2)
         return float(img[:, 1].mean()), [float(v) for v in img[:, 0]]
 
-    def _line_rows(self, g: dict, side: float, rows: list[int]) -> list[float]:
+    def _line_rows(self, g: dict, side: float, rows: list[int], kind: str | None) -> list[float]:
         """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent.
 
-        The truth runs as far as the marking is visible (:attr:`visible_m`), not to the end of
-        the pipeline's view.
+        The truth runs as far as the marking is visible: to the farthest paint in the frame
+        (gaps between dashes and worn patches nearer than that are labelled through, as
+        TuSimple's annotators do), and no farther than :attr:`visible_m`.  A line with no paint
+        in the frame (``kind`` None, or every dash in view missing) has no truth.
         """
+        if kind is None:
+            return [-2.0] * len(rows)
         z = np.geomspace(0.5, self.visible_m, 1500)
         x = self.centre(g, z) + side * g["width"]
         pts = np.column_stack([x, np.full_like(z, self.mount.height_m), z])
@@ -767,6 +770,11 @@ class Renderer:
         # monotonic far outside the calibrated field.
         ok = (cam[:, 2] > 0) & (und[:, 0] > -0.1 * w) & (und[:, 0] < 1.1 * w) & (und[:, 1] > -0.1 * h) & (
             und[:, 1] < 1.1 * h)
+        seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
+        painted = seen & (self.paint_along(z + g["travelled"], kind == "dashed") > 0)
+        if not painted.any():
+            return [-2.0] * len(rows)
+        ok &= z <= z[painted].max()
         if ok.sum() < 2:
             return [-2.0] * len(rows)
         rvec, _ = cv2.Rodrigues(self.rot)
@@ -787,6 +795,57 @@ class Renderer:
             a = (r - fy[i - 1]) / (fy[i] - fy[i - 1])
             out.append(round(float(fx[i - 1] + a * (fx[i] - fx[i - 1])), 2))
         return out
+
+    def paint_along(self, u: np.ndarray, dashed: bool) -> np.ndarray:
+        """Give how much of a line's paint is there along the road: dashes, missing dashes, wear.
+
+        Parameters
+        ----------
+        u : ndarray
+            Distances along the road (anchored to it), m.
+        dashed : bool
+            A dashed line (else solid).
+
+        Returns
+        -------
+        ndarray
+            Paint factor at each distance, 0 (none) to 1.
+        """
+        look, f = self.look, np.ones(u.shape, np.float32)
+        if dashed:
+            period = look.dash_m + look.gap_m
+            f = f * (((u + self.dash_phase) % period) < look.dash_m)
+            if look.missing_dashes > 0:
+                gone = self.wear[((u + self.dash_phase) / period).astype(np.int64) % self.wear.size]
+                f = f * (gone >= look.missing_dashes)
+        if self.sc.conditions.worn:
+            holes = self.wear[(u * 2).astype(np.int64) % self.wear.size] < 0.25
+            f = f * np.where(holes, 0.0, 0.55)
+            if dashed:
+                f = f * ~(self.wear[(u / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2)
+        return f
+
+    def ego_paint(self, g: dict) -> tuple[str | None, str | None]:
+        """Give how the ego lane's left and right lines are painted: ``solid``, ``dashed`` or None (bare).
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry` (relative to the first lane).
+
+        Returns
+        -------
+        tuple of (str or None)
+            The left and the right line.
+        """
+        look = self.look
+        if self.sc.conditions.double_yellow or look.left in ("double-yellow", "yellow"):
+            first_left: str | None = "solid"
+        else:
+            first_left = "dashed" if look.left == "white-dashed" else None
+        if self.ego_lane(g) == 0:
+            return first_left, "dashed"
+        return "dashed", "solid" if look.right_edge_paint else None
 
     # -- appearance -------------------------------------------------------------------------
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
@@ -838,7 +897,6 @@ class Renderer:
         grass = ((60, 10), (95, 12), (100, 10))  # B, G, R: level and grain off the road
         img = np.stack([np.where(off_road, lvl + k * tex, base * t) for (lvl, k), t in zip(grass, tint, strict=True)],
                        axis=-1).astype(np.float32)
-        period = look.dash_m + look.gap_m
 
         def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
                   width: float = look.marking_m) -> None:
@@ -850,16 +908,7 @@ class Renderer:
             d, uu = d[idx], u.ravel()[idx]
             # Coverage of the marking within this sample (smooth edge over ~1.5 cm).
             cov = np.clip((width / 2 - d) / 0.015 + 0.5, 0, 1)
-            if dashed:
-                cov = cov * (((uu + self.dash_phase) % period) < look.dash_m)
-                if look.missing_dashes > 0:
-                    gone = self.wear[((uu + self.dash_phase) / period).astype(np.int64) % self.wear.size]
-                    cov = cov * (gone >= look.missing_dashes)
-            if c.worn:
-                holes = self.wear[(uu * 2).astype(np.int64) % self.wear.size] < 0.25
-                cov = cov * np.where(holes, 0.0, 0.55)
-                missing = self.wear[(uu / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2
-                cov = cov * ~missing if dashed else cov
+            cov = cov * self.paint_along(uu, dashed)
             a = (cov * (alpha * look.paint))[:, None].astype(np.float32)
             flat = img.reshape(-1, 3)
             flat[idx] = flat[idx] * (1 - a) + a * np.asarray(color, np.float32)
