@@ -49,3 +49,13 @@ def remux(src: Path, dst: Path, fmt: str | None = None, options: dict | None = N
             if pkt.dts is not None:
                 pkt.stream = s_out
                 o.mux(pkt)
+
+
+#: Doctests that run a real job (a Dask cluster, video encoding): left out of `make test-fast`.
+SLOW_DOCTESTS = {"lanefinder.batch.run_batch"}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.name in SLOW_DOCTESTS:
+            item.add_marker(pytest.mark.slow)

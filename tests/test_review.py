@@ -46,6 +46,7 @@ def client(fleet_dir):
     return TestClient(create_app(Review(fleet_dir)))
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_api_lists_the_fleet_and_serves_frames(client):
     videos = {v["video"]: v for v in client.get("/api/videos").json()}
     assert set(videos) == {"challenge", "harder", "broken"}
@@ -58,6 +59,7 @@ def test_api_lists_the_fleet_and_serves_frames(client):
     assert r.status_code == 200 and set(r.json()["images"]) >= {"2_binary", "5_windows", "6_final"}
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 @pytest.mark.parametrize(("url", "status", "message"), [
     ("/api/videos/harder/frames/100.jpg", 404, "frame 100 is out of range 0..99"),
     ("/api/videos/harder/frames/-1.jpg", 404, "out of range"),
@@ -76,6 +78,7 @@ def test_api_refuses_what_lies_outside_and_bad_indices(client, url, status, mess
         assert message in r.json()["detail"]
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_api_serves_files_under_the_folder_but_no_symlink_out(client, fleet_dir):
     assert client.get("/files/summary.csv").text.startswith("video,input,status")
     link = fleet_dir / "escape.txt"
@@ -86,6 +89,7 @@ def test_api_serves_files_under_the_folder_but_no_symlink_out(client, fleet_dir)
         link.unlink()
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_api_refuses_bad_config_values_and_large_bodies(client):
     url = "/api/videos/harder/frames/0/inspect"
     r = client.post(url, json={"config": {"threshold.ridge.min_contrast": -5}})
@@ -101,6 +105,7 @@ def test_api_refuses_bad_config_values_and_large_bodies(client):
     assert r.status_code == 413
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_saved_config_is_atomic_and_never_over_an_input(fleet_dir):
     from fastapi.testclient import TestClient
 
@@ -119,6 +124,7 @@ def test_saved_config_is_atomic_and_never_over_an_input(fleet_dir):
         (fleet_dir / "review-config-2.toml").unlink(missing_ok=True)
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_a_video_with_its_telemetry_and_bad_paths(tmp_path):
     from lanefinder.errors import LaneFinderError
     from lanefinder.videojob import process_video

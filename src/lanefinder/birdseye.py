@@ -85,7 +85,9 @@ class BirdsEye:
         ndarray
             The bird's-eye image, ``size`` pixels, same dtype and channels.
         """
-        return cv2.remap(frame, self.map1, self.map2, interpolation, borderMode=cv2.BORDER_REPLICATE)
+        # Outside the frame is black (a constant border is cheaper than a replicated one, and a
+        # wide dark area is no marking: the ridge test needs road on both sides).
+        return cv2.remap(frame, self.map1, self.map2, interpolation)
 
     def warp_undistorted(self, image: np.ndarray) -> np.ndarray:
         """Map an already undistorted frame to the bird's-eye image (for figures).

@@ -202,25 +202,27 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
     )
 
 
-def _lstsq_fit(y: np.ndarray, x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
-    """Fit a weighted least-squares polynomial x(y) via the normal equations.
-
-    y is centred and scaled for conditioning; returns (a, b, c) of x = a*y^2 + b*y + c.
-    """
+def _design(y: np.ndarray, degree: int) -> tuple[np.ndarray, float, float]:
+    """Give the basis rows (t^2, t, 1) or (t, 1) of the fit, with y centred and scaled as t = (y - y0)/ys."""
     y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
     t = (y - y0) / ys
-    basis = np.stack([t * t, t, np.ones_like(t)] if degree == 2 else [t, np.ones_like(t)])
+    return (np.vstack([t * t, t, np.ones_like(t)]) if degree == 2 else np.vstack([t, np.ones_like(t)])), y0, ys
+
+
+def _solve(basis: np.ndarray, x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least squares on a basis, via the normal equations (lstsq when they are singular)."""
     weighted = basis * w
     try:
-        coef = np.linalg.solve(weighted @ basis.T, weighted @ x)
+        return np.linalg.solve(weighted @ basis.T, weighted @ x)
     except np.linalg.LinAlgError:
-        coef, *_ = np.linalg.lstsq(basis.T * np.sqrt(w)[:, None], x * np.sqrt(w), rcond=None)
-    p, q, r = coef if degree == 2 else np.r_[0.0, coef]
-    # Back from t = (y - y0)/ys to y.
-    a = p / ys**2
-    b = q / ys - 2 * p * y0 / ys**2
-    c = p * y0**2 / ys**2 - q * y0 / ys + r
-    return np.array([a, b, c])
+        sw = np.sqrt(w)
+        return np.linalg.lstsq(basis.T * sw[:, None], x * sw, rcond=None)[0]
+
+
+def _in_y(coef: np.ndarray, y0: float, ys: float) -> np.ndarray:
+    """Give (a, b, c) of x = a*y^2 + b*y + c from the coefficients in t = (y - y0)/ys."""
+    p, q, r = coef if coef.size == 3 else np.r_[0.0, coef]
+    return np.array([p / ys**2, q / ys - 2 * p * y0 / ys**2, p * y0**2 / ys**2 - q * y0 / ys + r])
 
 
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
@@ -260,14 +262,16 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     y = y.astype(np.float64)
     span = float(np.ptp(y)) / height_px
     degree = 2 if span >= cfg.min_span_fraction else 1
+    basis, y0, ys = _design(y, degree)  # built once for every reweighting
     w = np.ones_like(x)
-    coeffs = _lstsq_fit(y, x, w, degree)
+    coef = _solve(basis, x, w)
     for _ in range(cfg.robust_iterations):
-        r = np.abs(x - poly_x(coeffs, y))
+        r = np.abs(x - coef @ basis)
         w = np.minimum(1.0, cfg.huber_px / np.maximum(r, 1e-9))
-        coeffs = _lstsq_fit(y, x, w, degree)
-    r = x - poly_x(coeffs, y)
-    residual = float(np.sqrt(np.average(r * r, weights=w)))
+        coef = _solve(basis, x, w)
+    r = x - coef @ basis
+    residual = float(np.sqrt((w * r * r).sum() / w.sum()))
+    coeffs = _in_y(coef, y0, ys)
     support = min(1.0, n / cfg.support_pixels)
     quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
     confidence = float(np.clip(math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality, 0.0, 1.0))

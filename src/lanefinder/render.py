@@ -63,12 +63,28 @@ def lane_polylines(result: LaneResult, be: BirdsEye, n: int = N_SAMPLES) -> tupl
     >>> left.shape, bool(left[-1, 0] < right[-1, 0])
     ((24, 2), True)
     """
+    lines = _lane_points(result, be, n)
+    if lines is None:
+        return None
+    pts = be.to_frame(np.vstack(lines))
+    return pts[:n], pts[n:]
+
+
+def _lane_points(result: LaneResult, be: BirdsEye, n: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Give the lane's two lines as bird's-eye points, n each over the view's height; None without a lane."""
     if not result.lane_found:
         return None
     y = np.linspace(0, be.size[1], n)
     left, right = (np.column_stack([poly_x(line.fit_px, y), y]) for line in result.lines)
-    pts = be.to_frame(np.vstack([left, right]))
-    return pts[:n], pts[n:]
+    return left, right
+
+
+def _far_points(line: Line, n: int) -> np.ndarray | None:
+    """Give a line's far part as bird's-eye points, denser towards the far end; None without one."""
+    if line.far_fit_px is None or not line.far_end_px < 0:
+        return None
+    y = -np.geomspace(-line.far_end_px, 0.5, n)
+    return np.column_stack([poly_x(line.far_fit_px, y), y])
 
 
 def far_polyline(line: Line, be: BirdsEye, n: int = 16) -> np.ndarray | None:
@@ -100,10 +116,8 @@ def far_polyline(line: Line, be: BirdsEye, n: int = 16) -> np.ndarray | None:
     >>> pts.shape, bool(pts[0, 1] < pts[-1, 1] <= 461)
     ((16, 2), True)
     """
-    if line.far_fit_px is None or not line.far_end_px < 0:
-        return None
-    y = -np.geomspace(-line.far_end_px, 0.5, n)
-    return be.to_frame(np.column_stack([poly_x(line.far_fit_px, y), y]))
+    pts = _far_points(line, n)
+    return None if pts is None else be.to_frame(pts)
 
 
 def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderConfig) -> np.ndarray:
@@ -136,10 +150,16 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
     >>> bool((out != img).any())
     True
     """
-    lines = lane_polylines(result, be)
-    if lines is None:
+    near = _lane_points(result, be, N_SAMPLES)
+    if near is None:
         return frame
-    left, right = lines
+    # Every point drawn is mapped to the frame in one call (near lines, then each far part).
+    fars = [_far_points(line, 16) for line in result.lines]
+    parts = [*near, *(f for f in fars if f is not None)]
+    mapped = np.split(be.to_frame(np.vstack(parts)), np.cumsum([len(q) for q in parts])[:-1])
+    left, right = mapped[0], mapped[1]
+    far_frame = iter(mapped[2:])
+    far_lines = [None if f is None else next(far_frame) for f in fars]
     poly = np.vstack([left, right[::-1]])
     h, w = frame.shape[:2]
     x0, y0 = np.floor(poly.min(axis=0)).astype(int)
@@ -159,8 +179,7 @@ def draw_lane(frame: np.ndarray, result: LaneResult, be: BirdsEye, cfg: RenderCo
                 cv2.line(frame, tuple(p[i]), tuple(p[i + 1]), color, max(1, t // 2), cv2.LINE_AA)
         else:
             cv2.polylines(frame, [p], False, color, t, cv2.LINE_AA)
-    for line, color in zip(result.lines, (cfg.left_color, cfg.right_color), strict=True):
-        far = far_polyline(line, be)
+    for far, color in zip(far_lines, (cfg.left_color, cfg.right_color), strict=True):
         if far is not None:  # beyond the view, as far as the marking was followed: thinner
             cv2.polylines(frame, [np.round(far).astype(np.int32)], False, color, max(1, t // 3), cv2.LINE_AA)
     return frame
