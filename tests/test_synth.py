@@ -200,3 +200,15 @@ def test_a_line_with_no_paint_in_view_has_no_truth_and_a_dashed_one_ends_at_its_
     far_row = min(h for h, x in zip(t.h_samples, t.right_x, strict=True) if x >= 0)
     row, _ = r._line_image_at(g, float(painted.max()))
     assert abs(far_row - row) <= 10  # TuSimple rows are 10 px apart
+
+
+def test_paint_washed_out_by_glare_is_not_labelled(camera):
+    glare = SCENARIOS["glare"]
+    clear = replace(glare, conditions=replace(glare.conditions, glare=False))
+    look = Appearance.random(101)
+    r, c = (Renderer(camera, Mount(), sc, seed=101, appearance=look) for sc in (glare, clear))
+    tg, tc = (x.truth(0, 0.0, x.geometry(0.0)) for x in (r, c))
+    seen = lambda t: sum(x >= 0 for x in t.left_x + t.right_x)  # noqa: E731
+    assert 0 < seen(tg) < seen(tc)  # the glare ahead hides the far paint; what is left is labelled
+    far_row, far_x = next((h, x) for h, x in zip(tg.h_samples, tg.left_x, strict=True) if x >= 0)
+    assert not r.washed_out(0.0, np.array([far_x]), np.array([far_row], float), float(look.yellow[1])).any()

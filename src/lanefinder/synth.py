@@ -65,6 +65,10 @@ DASH_M, GAP_M = 3.0, 9.0
 MARKING_M = 0.15
 #: Distances ahead of the camera, m, at which the truth gives each line's lateral position.
 LATERAL_AT_M = (6.0, 20.0)
+#: Glare: the frame is this much brighter, plus this many grey levels times the glow.
+GLARE_GAIN, GLARE_GLOW = 1.45, 170.0
+#: Paint less than this many grey levels lighter than the road around it is not visible (not labelled).
+MIN_VISIBLE_CONTRAST = 6.0
 
 
 @dataclass(frozen=True)
@@ -709,8 +713,10 @@ class Renderer:
             lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
                                  "x": [round(x, 2) for x in xs]}
         kinds = self.ego_paint(road)
-        left = self._line_rows(g, -0.5, rows, kinds[0])
-        right = self._line_rows(g, 0.5, rows, kinds[1])
+        white = float(self.look.white[1])
+        left_level = float(self.look.yellow[1]) if self.ego_lane(road) == 0 and kinds[0] == "solid" else white
+        left = self._line_rows(g, -0.5, rows, kinds[0], t, left_level)
+        right = self._line_rows(g, 0.5, rows, kinds[1], t, white)
         if self.look.vehicles:
             polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, road)]
             left, right = self._unoccluded(polys, rows, left), self._unoccluded(polys, rows, right)
@@ -749,12 +755,14 @@ class Renderer:
         img = img.reshape(-1, 2)
         return float(img[:, 1].mean()), [float(v) for v in img[:, 0]]
 
-    def _line_rows(self, g: dict, side: float, rows: list[int], kind: str | None) -> list[float]:
+    def _line_rows(self, g: dict, side: float, rows: list[int], kind: str | None, t: float = 0.0,
+                   paint_level: float = 255.0) -> list[float]:
         """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent.
 
         The truth runs as far as the marking is visible: to the farthest paint in the frame
         (gaps between dashes and worn patches nearer than that are labelled through, as
-        TuSimple's annotators do), and no farther than :attr:`visible_m`.  A line with no paint
+        TuSimple's annotators do), and no farther than :attr:`visible_m`; paint that glare
+        washes out (:meth:`washed_out`) is not visible.  A line with no paint
         in the frame (``kind`` None, or every dash in view missing) has no truth.
         """
         if kind is None:
@@ -772,6 +780,7 @@ class Renderer:
             und[:, 1] < 1.1 * h)
         seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
         painted = seen & (self.paint_along(z + g["travelled"], kind == "dashed") > 0)
+        painted &= ~self.washed_out(t, und[:, 0], und[:, 1], paint_level)
         if not painted.any():
             return [-2.0] * len(rows)
         ok &= z <= z[painted].max()
@@ -846,6 +855,52 @@ class Renderer:
         if self.ego_lane(g) == 0:
             return first_left, "dashed"
         return "dashed", "solid" if look.right_edge_paint else None
+
+    def glow(self, t: float, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Give the glare's glow at frame pixels (the sun low ahead), 0-1.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, y : ndarray
+            Frame pixels.
+
+        Returns
+        -------
+        ndarray
+            The glow (the frame is ``GLARE_GAIN`` times brighter plus ``GLARE_GLOW`` times this).
+        """
+        w, h = self.size
+        cx, cy = w * (0.55 + 0.1 * math.sin(t)), h * 0.62
+        return np.exp(-(((x - cx) / (0.4 * w)) ** 2 + ((y - cy) / (0.25 * h)) ** 2))
+
+    def washed_out(self, t: float, x: np.ndarray, y: np.ndarray, paint_level: float) -> np.ndarray:
+        """Tell where glare leaves a marking less than ``MIN_VISIBLE_CONTRAST`` above the road.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, y : ndarray
+            Frame pixels.
+        paint_level : float
+            The paint's lightness (its green), 0-255.
+
+        Returns
+        -------
+        ndarray of bool
+            True where the paint cannot be told from the road (both over-exposed, say).
+        """
+        if not self.sc.conditions.glare:
+            return np.zeros(np.shape(x), bool)
+        look = self.look
+        road = look.surface_grey * look.gain
+        cover = look.paint * (0.55 if self.sc.conditions.worn else 1.0)
+        paint = road + cover * (paint_level * look.gain - road)
+        lit = GLARE_GLOW * self.glow(t, x, y)
+        contrast = np.minimum(255, GLARE_GAIN * paint + lit) - np.minimum(255, GLARE_GAIN * road + lit)
+        return contrast < MIN_VISIBLE_CONTRAST
 
     # -- appearance -------------------------------------------------------------------------
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
@@ -943,9 +998,7 @@ class Renderer:
             cv2.fillPoly(out, [np.round(poly).astype(np.int32)], (grey, grey, grey * 1.05), cv2.LINE_AA)
         if c.glare:
             yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-            cx, cy = w * (0.55 + 0.1 * math.sin(t)), h * 0.62
-            glow = np.exp(-(((xx - cx) / (0.4 * w)) ** 2 + ((yy - cy) / (0.25 * h)) ** 2))
-            out = out * 1.45 + 170 * glow[..., None]
+            out = out * GLARE_GAIN + GLARE_GLOW * self.glow(t, xx, yy)[..., None]
         return np.clip(out, 0, 255).astype(np.uint8)
 
     def vehicles(self, t: float, g: dict) -> list[tuple[float, np.ndarray]]:
