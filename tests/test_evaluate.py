@@ -100,3 +100,13 @@ def test_dataset_figures_and_metre_errors():
     assert r.radius_rel_err_median == pytest.approx(0.2)
     # Catastrophic: frame 2 (100 px line error, 0.7 m offset error) and frame 3 (missing).
     assert r.catastrophic_rate == pytest.approx(0.5)
+
+
+def test_a_frame_with_no_visible_paint_counts_only_what_is_shown():
+    rows = [700, 710]
+    gt = {"a": {"lanes": [[100, 101]], "h_samples": rows}, "b": {"lanes": [], "h_samples": rows}}
+    hit = {"lanes": [[100, 101]], "h_samples": rows}
+    shown = evaluate(gt, {"a": hit, "b": hit})
+    assert shown.accuracy == 1.0 and shown.fp == 0.5 and shown.catastrophic_rate == 0.0
+    none = evaluate(gt, {"a": hit, "b": {"lanes": [], "h_samples": rows}})
+    assert none.accuracy == 1.0 and none.fp == 0.0 and none.no_lane_rate == 0.0

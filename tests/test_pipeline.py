@@ -236,3 +236,21 @@ def test_the_angled_search_keeps_clutter_beside_a_slanted_line_out_of_its_fit():
         results[band_m] = (right, wrong)
     assert results[0.3][0] >= 11 and results[0.0][0] <= 5, results
     assert results[0.3][1] == 0 and results[0.0][1] == 0, results
+
+
+def test_specks_in_a_line_window_do_not_steer_a_short_dash():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_line, fit_params
+
+    # One dash 3 m long at the far end of the view (6 px wide, rows 0-30), and four specks of 2x3 px
+    # near the car 0.5 m to its right: the line is where the dash is, straight ahead.
+    ys, dx = np.repeat(np.arange(30.0), 6), np.tile(np.arange(6) - 2.5, 30)
+    xs = 125.0 + dx
+    for row in (200.0, 230.0, 260.0, 290.0):
+        sy, sx = np.meshgrid(np.arange(row, row + 3), np.arange(145.0, 147.0))
+        xs, ys = np.r_[xs, sx.ravel()], np.r_[ys, sy.ravel()]
+    p = fit_params(FitConfig(), 3.7 / 150, 0.0985)
+    fit = fit_line(xs, ys, 300, p)
+    assert abs(float(np.polyval(fit.coeffs_px, 299.0)) - 125.0) < 1.0  # at the car
+    loose = fit_line(xs, ys, 300, fit_params(FitConfig(band_min_marking_m=0.0), 3.7 / 150, 0.0985))
+    assert abs(float(np.polyval(loose.coeffs_px, 299.0)) - 125.0) > 10.0  # every pixel counting: steered

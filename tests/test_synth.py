@@ -211,4 +211,4 @@ def test_paint_washed_out_by_glare_is_not_labelled(camera):
     seen = lambda t: sum(x >= 0 for x in t.left_x + t.right_x)  # noqa: E731
     assert 0 < seen(tg) < seen(tc)  # the glare ahead hides the far paint; what is left is labelled
     far_row, far_x = next((h, x) for h, x in zip(tg.h_samples, tg.left_x, strict=True) if x >= 0)
-    assert not r.washed_out(0.0, np.array([far_x]), np.array([far_row], float), float(look.yellow[1])).any()
+    assert not r.washed_out(0.0, np.array([far_x]), np.array([far_row], float), look.yellow).any()

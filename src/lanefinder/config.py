@@ -415,6 +415,12 @@ class FitConfig(_Section):
         Span of the view a line must cover for full confidence.
     max_points : int
         A line with more pixels is fitted on an even subsample of this many.
+    band_m : float
+        A line's pixels are counted in bands this long along the road, metres ...
+    band_min_marking_m : float
+        ... and a band holding less paint than this length of full-width marking is left out
+        of the fit: specks and crack slivers in the search window, not a marking (a real dash
+        fills its bands), metres (0: every pixel counts).
     max_radius_m : float
         Cap on the reported radius, metres (a straight road reports it).
     straight_radius_m : float
@@ -437,6 +443,8 @@ class FitConfig(_Section):
     full_span_fraction: Annotated[float, Field(gt=0, le=1)] = 0.6
     # A line with more pixels is fitted on an even subsample of this many (bounds the cost).
     max_points: Annotated[int, Field(ge=10, le=100000)] = 1200
+    band_m: PositiveFloat = 1.0
+    band_min_marking_m: Annotated[float, Field(ge=0, le=10)] = 0.13
     max_radius_m: PositiveFloat = 10000.0
     straight_radius_m: PositiveFloat = 3000.0
 

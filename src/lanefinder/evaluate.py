@@ -161,7 +161,8 @@ class EvalReport:
     frames : int
         Ground-truth frames scored.
     accuracy, fp, fn : float
-        TuSimple accuracy, false-positive and false-negative rates (means over frames).
+        TuSimple accuracy, false-positive and false-negative rates (means over the frames with
+        a truth line; FP over all frames).
     offset_err_median_m, offset_err_p90_m : float or None
         Median and 90th percentile of |offset error|, metres.
     curvature_err_median : float or None
@@ -169,7 +170,8 @@ class EvalReport:
     radius_rel_err_median : float or None
         Median relative radius error where the true radius is below 1000 m.
     catastrophic_rate : float
-        Fraction of frames with no lane, a line off by over 50 px, or offset off by over 0.5 m.
+        Fraction of the frames with a truth line that show no lane, a line off by over 50 px, or
+        an offset off by over 0.5 m.
     missing_frames : int
         Ground-truth frames with no prediction at all.
     band_accuracy : dict of str to float or None
@@ -390,7 +392,9 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
 
     A frame with no prediction counts as predicting no lane.  Catastrophic: no lane
     predicted, a truth line whose mean error over the rows both have is above 50 px (or that
-    has no prediction at all), or an offset error above 0.5 m.
+    has no prediction at all), or an offset error above 0.5 m.  A frame whose truth has no
+    line (no paint visible: washed out by glare, say) counts only for FP (each line shown is
+    one); accuracy, FN and the catastrophic rate are over the frames with a truth line.
 
     Parameters
     ----------
@@ -428,11 +432,13 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
         if p is None:
             missing += 1
         lanes = p["lanes"] if p else []
-        if g["lanes"]:
-            with_line += 1
-            no_lane += not lanes
         a, f_p, f_n = bench_frame(lanes, g["lanes"], g["h_samples"], float(p.get("run_time", 0) or 0) if p else 0)
-        acc, fp, fn = acc + a, fp + f_p, fn + f_n
+        fp += f_p
+        if not g["lanes"]:  # nothing to find: only what is shown counts (as FP)
+            continue
+        with_line += 1
+        no_lane += not lanes
+        acc, fn = acc + a, fn + f_n
         bad = not lanes or _lines_far_off(g["lanes"], lanes)
         _count_bands(g, lanes, band_hits)
         for dist, errs in lat.items():
@@ -447,10 +453,10 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
             if r_gt is not None and abs(r_gt) < 1000 and p.get("radius_m") is not None:
                 r_rel.append(abs(float(p["radius_m"]) - float(r_gt)) / abs(float(r_gt)))
         catastrophic += bad
-    n = len(gt)
+    n, m = len(gt), max(1, with_line)
     hits, totals = band_hits
-    return EvalReport(n, acc / n, fp / n, fn / n, _med(off_err), _p90(off_err), _med(k_err), _med(r_rel),
-                      catastrophic / n, missing,
+    return EvalReport(n, acc / m, fp / n, fn / m, _med(off_err), _p90(off_err), _med(k_err), _med(r_rel),
+                      catastrophic / m, missing,
                       band_accuracy={_band_name(b): (float(h / t) if t else None)
                                      for b, h, t in zip(BANDS_M, hits, totals, strict=True)},
                       band_points={_band_name(b): int(t) for b, t in zip(BANDS_M, totals, strict=True)},

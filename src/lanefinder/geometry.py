@@ -146,6 +146,10 @@ class FitParams:
         Span for full confidence.
     max_points : int
         Subsample bound.
+    band_rows : int
+        Rows of a band (see ``FitConfig.band_m``).
+    band_min_pixels : int
+        Pixels a band needs to take part in the fit (0: all do).
 
     Examples
     --------
@@ -163,6 +167,8 @@ class FitParams:
     parallel: float
     full_span_fraction: float
     max_points: int
+    band_rows: int = 10
+    band_min_pixels: int = 0
 
 
 def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
@@ -199,6 +205,8 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
         parallel=cfg.parallel,
         full_span_fraction=cfg.full_span_fraction,
         max_points=cfg.max_points,
+        band_rows=max(1, round(cfg.band_m / ym_per_px)),
+        band_min_pixels=round(cfg.band_min_marking_m * per_m),
     )
 
 
@@ -228,7 +236,9 @@ def _in_y(coef: np.ndarray, y0: float, ys: float) -> np.ndarray:
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
     """Fit a line's pixels robustly (Huber IRLS, second order).
 
-    Pixels covering less than ``min_span_fraction`` of the height get a straight fit.
+    Pixels in bands along the road that hold too little paint (``band_min_pixels`` in
+    ``band_rows``) are left out first.  Pixels covering less than ``min_span_fraction`` of the
+    height get a straight fit.
 
     Parameters
     ----------
@@ -247,17 +257,23 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     Examples
     --------
     >>> from lanefinder.config import FitConfig
-    >>> y = np.arange(300.0); x = 0.001 * (y - 300) ** 2 + 125
+    >>> y = np.repeat(np.arange(300.0), 6)  # a marking 6 px wide
+    >>> x = 0.001 * (y - 300) ** 2 + 125 + np.tile(np.arange(6) - 2.5, 300)
     >>> fit = fit_line(x, y, 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
     >>> fit.coeffs_px.round(3).tolist(), round(fit.confidence, 2)
-    ([0.001, -0.6, 215.0], 1.0)
+    ([0.001, -0.6, 215.0], 0.82)
     """
+    if cfg.band_min_pixels > 0 and x.size:  # bands with too little paint: specks, not a marking
+        band = (np.asarray(y) // cfg.band_rows).astype(np.intp)
+        keep = np.bincount(band)[band] >= cfg.band_min_pixels
+        x, y = x[keep], y[keep]
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
-    if n > cfg.max_points:  # an even subsample keeps the fit and bounds the cost
-        step = n // cfg.max_points + 1
-        x, y = x[::step], y[::step]
+    if n > cfg.max_points:  # every step-th row keeps the fit and bounds the cost
+        step = n // cfg.max_points + 1  # (whole rows: every step-th pixel would take some columns of each row)
+        keep = np.asarray(y).astype(np.intp) % step == 0
+        x, y = x[keep], y[keep]
     x = x.astype(np.float64)
     y = y.astype(np.float64)
     span = float(np.ptp(y)) / height_px
@@ -305,9 +321,8 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
     Examples
     --------
     >>> from lanefinder.config import FitConfig
-    >>> y = np.arange(300.0)
-    >>> fl, fr = fit_lane((np.full(300, 125.0), y), (np.full(300, 275.0), y), 300,
-    ...                   fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    >>> y, dx = np.repeat(np.arange(300.0), 6), np.tile(np.arange(6) - 2.5, 300)  # markings 6 px wide
+    >>> fl, fr = fit_lane((125.0 + dx, y), (275.0 + dx, y), 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
     >>> fl.coeffs_px.round(3).tolist(), fr.coeffs_px.round(3).tolist()
     ([0.0, 0.0, 125.0], [0.0, 0.0, 275.0])
     """

@@ -713,9 +713,10 @@ class Renderer:
             lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
                                  "x": [round(x, 2) for x in xs]}
         kinds = self.ego_paint(road)
-        white = float(self.look.white[1])
-        left_level = float(self.look.yellow[1]) if self.ego_lane(road) == 0 and kinds[0] == "solid" else white
-        left = self._line_rows(g, -0.5, rows, kinds[0], t, left_level)
+        white = tuple(float(v) for v in self.look.white)
+        yellow = tuple(float(v) for v in self.look.yellow)
+        left = self._line_rows(g, -0.5, rows, kinds[0], t, yellow if self.ego_lane(road) == 0 and kinds[0] == "solid"
+                               else white)
         right = self._line_rows(g, 0.5, rows, kinds[1], t, white)
         if self.look.vehicles:
             polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, road)]
@@ -756,7 +757,7 @@ class Renderer:
         return float(img[:, 1].mean()), [float(v) for v in img[:, 0]]
 
     def _line_rows(self, g: dict, side: float, rows: list[int], kind: str | None, t: float = 0.0,
-                   paint_level: float = 255.0) -> list[float]:
+                   paint: tuple[float, float, float] = (255.0, 255.0, 255.0)) -> list[float]:
         """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent.
 
         The truth runs as far as the marking is visible: to the farthest paint in the frame
@@ -780,7 +781,7 @@ class Renderer:
             und[:, 1] < 1.1 * h)
         seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
         painted = seen & (self.paint_along(z + g["travelled"], kind == "dashed") > 0)
-        painted &= ~self.washed_out(t, und[:, 0], und[:, 1], paint_level)
+        painted &= ~self.washed_out(t, und[:, 0], und[:, 1], paint)
         if not painted.any():
             return [-2.0] * len(rows)
         ok &= z <= z[painted].max()
@@ -875,8 +876,8 @@ class Renderer:
         cx, cy = w * (0.55 + 0.1 * math.sin(t)), h * 0.62
         return np.exp(-(((x - cx) / (0.4 * w)) ** 2 + ((y - cy) / (0.25 * h)) ** 2))
 
-    def washed_out(self, t: float, x: np.ndarray, y: np.ndarray, paint_level: float) -> np.ndarray:
-        """Tell where glare leaves a marking less than ``MIN_VISIBLE_CONTRAST`` above the road.
+    def washed_out(self, t: float, x: np.ndarray, y: np.ndarray, paint: tuple[float, float, float]) -> np.ndarray:
+        """Tell where glare leaves a marking less than ``MIN_VISIBLE_CONTRAST`` from the road in every channel.
 
         Parameters
         ----------
@@ -884,22 +885,26 @@ class Renderer:
             Time, s.
         x, y : ndarray
             Frame pixels.
-        paint_level : float
-            The paint's lightness (its green), 0-255.
+        paint : tuple of float
+            The paint's colour, BGR 0-255.
 
         Returns
         -------
         ndarray of bool
-            True where the paint cannot be told from the road (both over-exposed, say).
+            True where the paint cannot be told from the road (both over-exposed, say); a
+            yellow line whose lightness is lost may still show by its colour.
         """
         if not self.sc.conditions.glare:
             return np.zeros(np.shape(x), bool)
         look = self.look
-        road = look.surface_grey * look.gain
         cover = look.paint * (0.55 if self.sc.conditions.worn else 1.0)
-        paint = road + cover * (paint_level * look.gain - road)
-        lit = GLARE_GLOW * self.glow(t, x, y)
-        contrast = np.minimum(255, GLARE_GAIN * paint + lit) - np.minimum(255, GLARE_GAIN * road + lit)
+        lit = GLARE_GLOW * self.glow(t, np.asarray(x, np.float64), np.asarray(y, np.float64))
+        contrast = np.zeros(np.shape(lit))
+        for colour, tint in zip(paint, look.tint, strict=True):
+            road = look.surface_grey * tint * look.gain
+            mixed = road + cover * (colour * look.gain - road)
+            seen = np.abs(np.minimum(255, GLARE_GAIN * mixed + lit) - np.minimum(255, GLARE_GAIN * road + lit))
+            contrast = np.maximum(contrast, seen)
         return contrast < MIN_VISIBLE_CONTRAST
 
     # -- appearance -------------------------------------------------------------------------
