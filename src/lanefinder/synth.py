@@ -910,7 +910,8 @@ class Renderer:
     # -- appearance -------------------------------------------------------------------------
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
         m = tile.shape[0] - 1  # tiles are a power of two wide: "& m" is "% (m + 1)", also below zero
-        return tile[(a * sa).astype(np.int32) & m, (b * sb).astype(np.int32) & m]
+        with np.errstate(invalid="ignore"):  # near the horizon of a sharp curve, past int32: any texel does
+            return tile[(a * sa).astype(np.int32) & m, (b * sb).astype(np.int32) & m]
 
     def render(self, t: float) -> np.ndarray:
         """Render the distorted frame at a time.
