@@ -30,6 +30,15 @@ pytestmark = pytest.mark.slow
 PROJECT = CLIPS / "project_37-47s.mp4"
 CHALLENGE = CLIPS / "challenge_3-7s.mp4"
 HARDER = CLIPS / "harder_challenge_0-4s.mp4"
+#: For the plumbing tests (URLs, a scheduler of its own, a killed run): no self-calibration, which
+#: on these short clips would look at every 4th frame and cost four times the lane finding.
+PLUMBING = Config.model_validate({"selfcal": {"enabled": False}})
+
+
+def _plumbing_toml(folder: Path) -> str:
+    path = folder / "plumbing.toml"
+    path.write_text("[selfcal]\nenabled = false\n")
+    return str(path)
 # Short segments, so the 10 s project clip is cut in four and stitched.
 # Self-calibration off: the segments of a split video would each calibrate on their own (see
 # the README's limitations); these tests are about cutting and stitching.
@@ -104,13 +113,13 @@ def test_memory_and_file_urls(tmp_path):
 
     fs = fsspec.filesystem("memory")
     fs.pipe("/fleet/in/harder.mp4", HARDER.read_bytes())
-    report = run_batch(["memory://fleet/in"], "memory://fleet/out", workers=1, progress=False)
+    report = run_batch(["memory://fleet/in"], "memory://fleet/out", PLUMBING, workers=1, progress=False)
     assert (report.done, report.failed) == (1, 0)
     summary = pq.read_table("fleet/out/summary.parquet", filesystem=fs).to_pylist()
     assert summary[0]["video"] == "harder" and summary[0]["frames"] == 100
     assert fs.ls("/fleet/out/telemetry/video=harder", detail=False)
     fs.rm("/fleet", recursive=True)
-    url = run_batch([f"file://{HARDER}"], f"file://{tmp_path}/out", workers=1, progress=False)
+    url = run_batch([f"file://{HARDER}"], f"file://{tmp_path}/out", PLUMBING, workers=1, progress=False)
     assert url.done == 1 and (tmp_path / "out" / "telemetry" / "video=harder_challenge_0-4s").is_dir()
 
 
@@ -144,7 +153,7 @@ def test_batch_on_a_scheduler_and_worker_started_as_processes(tmp_path):
         with Client(addr, timeout="30s") as c:
             assert _wait(lambda: len(c.scheduler_info()["workers"]) == 1, 60)
         out = subprocess.run([*CLI, "batch", str(HARDER), "-o", str(tmp_path / "out"), "--scheduler", addr,
-                              "--quiet"], capture_output=True, text=True, timeout=120)
+                              "--quiet", "-c", _plumbing_toml(tmp_path)], capture_output=True, text=True, timeout=120)
         assert out.returncode == 0, out.stderr
         assert "1 videos: 1 processed" in out.stdout
         assert len(rows_of(tmp_path / "out", "harder_challenge_0-4s")) == 100
@@ -172,7 +181,8 @@ def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
         except (OSError, ValueError, KeyError):
             return 0
 
-    proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "1", "--quiet"],
+    cfg = _plumbing_toml(tmp_path)
+    proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "1", "--quiet", "-c", cfg],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         assert _wait(lambda: finished() >= 1, 120)
@@ -181,7 +191,7 @@ def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
         proc.communicate(timeout=30)
     done_before = finished()
     assert 1 <= done_before < 3
-    again = subprocess.run([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "1", "--quiet"],
+    again = subprocess.run([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "1", "--quiet", "-c", cfg],
                            capture_output=True, text=True, timeout=180)
     assert again.returncode == 0, again.stderr
     assert f"3 videos: {3 - done_before} processed, {done_before} skipped" in again.stdout

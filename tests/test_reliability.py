@@ -42,6 +42,8 @@ from lanefinder.video import VideoInfo
 from conftest import CAL, CLIPS, TEST_IMAGES, faststart_copy
 
 CLIP = CLIPS / "project_37-47s.mp4"
+#: The corrupt-media cases are cut from the 4-second clip (120 frames): what is tested is the reading.
+MEDIA_CLIP = CLIPS / "challenge_3-7s.mp4"
 CAMERA = Path(__file__).resolve().parents[1] / "src" / "lanefinder" / "data" / "udacity_camera.json"
 FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 RUN_TIMEOUT_S = 120
@@ -307,14 +309,14 @@ def _encode(path: Path, size: tuple[int, int], n: int, codec: str, fmt: str | No
 
 
 def _media(kind: str, folder: Path) -> Path:
-    data = CLIP.read_bytes()
+    data = MEDIA_CLIP.read_bytes()
     if kind.startswith("cut-end-"):  # the clip keeps its index at the end
         p = folder / f"{kind}.mp4"
         p.write_bytes(data[: int(len(data) * int(kind.rsplit("-", 1)[1]) / 100)])
     elif kind.startswith("cut-front-"):
         whole = folder / "whole.mp4"
         if not whole.exists():
-            faststart_copy(CLIP, whole)
+            faststart_copy(MEDIA_CLIP, whole)
         p = folder / f"{kind}.mp4"
         b = whole.read_bytes()
         p.write_bytes(b[: int(len(b) * int(kind.rsplit("-", 1)[1]) / 100)])

@@ -34,7 +34,8 @@ def fleet_dir(tmp_path_factory):
     shutil.copy(HARDER, d / "in" / "harder.mp4")
     (d / "in" / "broken.mp4").write_bytes(b"not a video" * 100)
     # Warnings 0.4 m before a wheel reaches a line, so the short clips hold events to jump to.
-    cfg = Config.model_validate({"events": {"warning_margin_m": 0.4}})
+    # (No self-calibration: not what is tested here, and on these short clips the most of the cost.)
+    cfg = Config.model_validate({"events": {"warning_margin_m": 0.4}, "selfcal": {"enabled": False}})
     run_batch([d / "in"], d / "out", cfg, workers=1, progress=False)
     return d / "out"
 

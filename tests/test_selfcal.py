@@ -93,3 +93,16 @@ def test_a_still_of_a_camera_mounted_otherwise_is_seen_with_its_own_setup(test_i
     assert abs(plain.width_m - 3.7) > 0.5 and abs(own.width_m - 3.7) < 0.1
     # ... and a still of the camera the default set-up was made for keeps it.
     assert LaneFinder().process_still(test_images["straight_lines2"]).setup == "default"
+
+
+def test_a_frame_the_pipeline_reads_as_curved_is_not_looked_at(test_images):
+    from lanefinder.selfcal import SelfCalibrator
+
+    be = LaneFinder().birdseye((1280, 720))
+    still = test_images["straight_lines1"]
+    cal = SelfCalibrator(Config(), be.camera, be)
+    cal.offer(still, curvature_per_m=1 / 100)  # its turn, but R 100 m: the straightness test would refuse it
+    assert len(cal._frames) == 0
+    cal = SelfCalibrator(Config(), be.camera, be)
+    cal.offer(still, curvature_per_m=1 / 5000)
+    assert len(cal._frames) == 1

@@ -709,6 +709,11 @@ class SelfCalConfig(_Section):
         ... and by more than this many of the estimate's expected errors.
     dash_period_m : float
         Dash plus gap, m, for the focal length without one (12.2: US federal; 14.6: California).
+    skip_radius_m : float
+        A frame whose lane the pipeline has just read as curving tighter than this is not looked
+        at (the set-up's straightness test would refuse it; a homography keeps straight lines
+        straight, so a wrong set-up does not make a straight road look curved), m (0: look at
+        every frame whose turn it is).
     stills : bool
         ``lanefinder image`` estimates each still's own set-up from the still alone (one
         straight frame is enough when the focal length is known) ...
@@ -737,6 +742,7 @@ class SelfCalConfig(_Section):
     change_car_m: Annotated[float, Field(gt=0, le=5)] = 0.08
     change_sigmas: Annotated[float, Field(ge=0, le=100)] = 3.0
     dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
+    skip_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
     stills: bool = True
     still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 2.0)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.3

@@ -244,7 +244,7 @@ class LaneFinder:
             return result
         if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
-        new = self.selfcal.offer(frame)
+        new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)
         if new is not None:
             self.use_birdseye(new)  # from the next frame on
         return replace(result, setup=self.selfcal.state.source)

@@ -144,13 +144,16 @@ class SelfCalibrator:
             img = cv2.remap(img, self._maps[0], self._maps[1], cv2.INTER_LINEAR)
         return img
 
-    def offer(self, frame: np.ndarray) -> BirdsEye | None:
+    def offer(self, frame: np.ndarray, curvature_per_m: float = math.nan) -> BirdsEye | None:
         """Look at a frame (when it is its turn); give a new set-up when one should replace the current.
 
         Parameters
         ----------
         frame : (H, W, 3) uint8 ndarray
             The next raw frame, BGR.
+        curvature_per_m : float, optional
+            The lane's curvature as the pipeline read it in this frame, 1/m (NaN: unknown); a
+            frame curving tighter than ``selfcal.skip_radius_m`` is not looked at.
 
         Returns
         -------
@@ -161,6 +164,8 @@ class SelfCalibrator:
         fast = self.state.source == "default" and self._seen <= self.cfg.fast_frames
         every = self.cfg.every_frames if fast else self.cfg.refine_every_frames
         if (self._seen - 1) % every:
+            return None
+        if self.cfg.skip_radius_m > 0 and abs(curvature_per_m) * self.cfg.skip_radius_m > 1:  # NaN: looked at
             return None
         und = self._prepare(frame)
         ev = frame_evidence(und, self.opts, index=self._seen)
