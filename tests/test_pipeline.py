@@ -254,3 +254,33 @@ def test_specks_in_a_line_window_do_not_steer_a_short_dash():
     assert abs(float(np.polyval(fit.coeffs_px, 299.0)) - 125.0) < 1.0  # at the car
     loose = fit_line(xs, ys, 300, fit_params(FitConfig(band_min_marking_m=0.0), 3.7 / 150, 0.0985))
     assert abs(float(np.polyval(loose.coeffs_px, 299.0)) - 125.0) > 10.0  # every pixel counting: steered
+
+
+def test_the_lane_fit_keeps_the_specks_out_too():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_lane, fit_params
+
+    # A 2 m dash far ahead and a 7-pixel speck in every band beside it; a solid right line.
+    p = fit_params(FitConfig(), 3.7 / 150, 0.0985)
+    lx, ly = 125 + np.tile(np.arange(6) - 2.5, 20), np.repeat(np.arange(0, 20.0), 6)
+    sx = [160.0 + k % 2 for _ in range(3, 30) for k in range(7)]
+    sy = [b * 10.0 + k // 2 for b in range(3, 30) for k in range(7)]
+    rx, ry = 275 + np.tile(np.arange(6) - 2.5, 300), np.repeat(np.arange(300.0), 6)
+    left, _ = fit_lane((np.r_[lx, sx], np.r_[ly, sy]), (rx, ry), 300, p)
+    assert abs(float(np.polyval(left.coeffs_px, 299.0)) - 125.0) < 2.0  # 160 when the median took the specks
+
+
+def test_sparse_rows_with_a_small_subsample_are_still_fitted():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_line, fit_params
+
+    p = fit_params(FitConfig(max_points=10), 3.7 / 150, 0.0985)
+    ys, xs = np.repeat([101.0, 103.0], 20), np.full(40, 125.0)
+    assert fit_line(xs, ys, 300, p) is not None  # every step-th row would have held none
+
+
+def test_a_band_needing_more_paint_than_it_holds_is_refused():
+    from lanefinder.config import FitConfig
+
+    with pytest.raises(ValueError, match="band_min_marking_m"):
+        FitConfig(band_m=0.1, band_min_marking_m=0.13)

@@ -93,6 +93,8 @@ def test_a_still_of_a_camera_mounted_otherwise_is_seen_with_its_own_setup(test_i
     assert abs(plain.width_m - 3.7) > 0.5 and abs(own.width_m - 3.7) < 0.1
     # ... and a still of the camera the default set-up was made for keeps it.
     assert LaneFinder().process_still(test_images["straight_lines2"]).setup == "default"
+    # ... and a still whose one-frame estimate puts the camera too high keeps it (test1, a curve: 1.82 m).
+    assert LaneFinder().process_still(test_images["test1"]).setup == "default"
 
 
 def test_a_frame_the_pipeline_reads_as_curved_is_not_looked_at(test_images):

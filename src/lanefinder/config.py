@@ -448,6 +448,12 @@ class FitConfig(_Section):
     max_radius_m: PositiveFloat = 10000.0
     straight_radius_m: PositiveFloat = 3000.0
 
+    @model_validator(mode="after")
+    def _check_band(self) -> FitConfig:
+        if self.band_min_marking_m >= self.band_m:
+            raise ValueError("band_min_marking_m must be below band_m (a full-width marking fills its band)")
+        return self
+
 
 class TrackingConfig(_Section):
     """Across frames: the lane checks, smoothing, re-detection (see :mod:`lanefinder.checks`).
@@ -719,10 +725,14 @@ class SelfCalConfig(_Section):
         straight frame is enough when the focal length is known) ...
     still_height_m : tuple of float
         ... and takes it when the camera height it implies (from the lane width) is in this
-        range, m (one frame cannot tell a hill from a camera pitched otherwise) ...
+        range, a car's dashcam, m (one frame cannot tell a hill from a camera pitched
+        otherwise; a curving road read as straight gives too high a camera) ...
     still_max_car_m : float
         ... and it places the car at most this far from where the set-up in use does, m (one
         frame cannot tell a car off its lane's centre from a camera turned).
+    still_min_radius_m : float
+        A still whose lane the config's set-up reads as curving tighter than this is not looked
+        at (one frame of a curving road can mislead the estimate), m (0: every still is).
 
     Examples
     --------
@@ -744,8 +754,9 @@ class SelfCalConfig(_Section):
     dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
     skip_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
     stills: bool = True
-    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 2.0)
+    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.6)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.3
+    still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
 
     @model_validator(mode="after")
     def _check_heights(self) -> SelfCalConfig:

@@ -233,6 +233,15 @@ def _in_y(coef: np.ndarray, y0: float, ys: float) -> np.ndarray:
     return np.array([p / ys**2, q / ys - 2 * p * y0 / ys**2, p * y0**2 / ys**2 - q * y0 / ys + r])
 
 
+def _marking(x: np.ndarray, y: np.ndarray, cfg: FitParams) -> tuple[np.ndarray, np.ndarray]:
+    """Keep a line's pixels in the bands along the road that hold enough paint (specks are not a marking)."""
+    if cfg.band_min_pixels <= 0 or not x.size:
+        return x, y
+    band = (np.asarray(y) // cfg.band_rows).astype(np.intp)
+    keep = np.bincount(band)[band] >= cfg.band_min_pixels
+    return x[keep], y[keep]
+
+
 def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
     """Fit a line's pixels robustly (Huber IRLS, second order).
 
@@ -263,17 +272,17 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     >>> fit.coeffs_px.round(3).tolist(), round(fit.confidence, 2)
     ([0.001, -0.6, 215.0], 0.82)
     """
-    if cfg.band_min_pixels > 0 and x.size:  # bands with too little paint: specks, not a marking
-        band = (np.asarray(y) // cfg.band_rows).astype(np.intp)
-        keep = np.bincount(band)[band] >= cfg.band_min_pixels
-        x, y = x[keep], y[keep]
+    x, y = _marking(x, y, cfg)
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
     if n > cfg.max_points:  # every step-th row keeps the fit and bounds the cost
         step = n // cfg.max_points + 1  # (whole rows: every step-th pixel would take some columns of each row)
         keep = np.asarray(y).astype(np.intp) % step == 0
-        x, y = x[keep], y[keep]
+        if keep.sum() >= cfg.min_pixels:  # (sparse rows may miss every step-th one)
+            x, y = x[keep], y[keep]
+        else:
+            x, y = x[::step], y[::step]
     x = x.astype(np.float64)
     y = y.astype(np.float64)
     span = float(np.ptp(y)) / height_px
@@ -340,8 +349,8 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         # The weaker line moves more: up to ``parallel`` of the way, in proportion to the other's support.
         lam = cfg.parallel * pull
         ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
-        yy = y.astype(np.float64)
-        c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), yy)))
+        x, y = _marking(x, y, cfg)  # the pixels the fit took (the specks it left out stay out)
+        c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), y.astype(np.float64))))
         out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))
     return out[0], out[1]
 

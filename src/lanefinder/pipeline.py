@@ -253,8 +253,12 @@ class LaneFinder:
         """Find the lane in a single still, blind: no track, and the still's own set-up when it gives one.
 
         With a config that has no set-up of its own (:func:`lanefinder.selfcal.wanted`) and
-        ``selfcal.stills``, the still is first looked at as a one-frame video
-        (:func:`lanefinder.selfcal.still_setup`); its set-up is used for this still only.
+        ``selfcal.stills``, a still whose lane does not read as curving tighter than
+        ``selfcal.still_min_radius_m`` (or shows no lane) with the config's set-up is looked at as a one-frame video
+        (:func:`lanefinder.selfcal.still_setup`), and found again with its own set-up when that
+        gives one.  That set-up stays in use (:meth:`birdseye` gives it, to draw the result)
+        until the next still; call :meth:`reset` and :meth:`use_birdseye` before using the
+        finder for a video.
 
         Parameters
         ----------
@@ -291,10 +295,15 @@ class LaneFinder:
             self._config_birdseye = self.birdseye(size)
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
+        first = replace(self.process(frame), setup="default")
+        if first.lane_found and abs(first.curvature_per_m) * self.config.selfcal.still_min_radius_m > 1:
+            return first  # a curving road: one frame's vanishing point and lines are not to be trusted
         own = still_setup(frame, self.config, self._config_birdseye)
-        if own is not None:
-            self.use_birdseye(own)
-        return replace(self.process(frame), setup="default" if own is None else "estimated")
+        if own is None:
+            return first
+        self.use_birdseye(own)
+        self.reset()
+        return replace(self.process(frame), setup="estimated")
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
