@@ -50,6 +50,7 @@ __all__ = [
     "Appearance",
     "Conditions",
     "FrameTruth",
+    "Marking",
     "Mount",
     "Renderer",
     "Scenario",
@@ -135,6 +136,33 @@ DASH_PATTERNS_M = ((3.0, 9.0), (3.05, 9.15), (2.0, 7.0), (6.0, 12.0), (3.0, 6.0)
 #: What lies left of the ego lane: a solid yellow line, a double yellow line, a dashed white
 #: line with another lane beyond it, or the road's edge with no paint.
 LEFT_KINDS = ("yellow", "double-yellow", "white-dashed", "edge")
+
+
+@dataclass(frozen=True)
+class Marking:
+    """A line painted along the road.
+
+    Attributes
+    ----------
+    centre_m : float
+        Its centre across the road, m from the first lane's centre (right positive).
+    colour : tuple of float
+        Its paint, BGR 0-255.
+    dashed : bool
+        Dashed (else solid).
+    width_m : float
+        Its width, m.
+
+    Examples
+    --------
+    >>> Marking(centre_m=1.85, colour=(230.0, 230.0, 230.0), dashed=True, width_m=0.15).dashed
+    True
+    """
+
+    centre_m: float
+    colour: tuple[float, float, float]
+    dashed: bool
+    width_m: float
 
 
 @dataclass(frozen=True)
@@ -712,12 +740,8 @@ class Renderer:
             y, xs = self._line_image_at(g, z)
             lateral[f"{z:g}"] = {"y": round(y, 2), "m_per_px": round(z / float(self.camera.camera_matrix[0, 0]), 6),
                                  "x": [round(x, 2) for x in xs]}
-        kinds = self.ego_paint(road)
-        white = tuple(float(v) for v in self.look.white)
-        yellow = tuple(float(v) for v in self.look.yellow)
-        left = self._line_rows(g, -0.5, rows, kinds[0], t, yellow if self.ego_lane(road) == 0 and kinds[0] == "solid"
-                               else white)
-        right = self._line_rows(g, 0.5, rows, kinds[1], t, white)
+        left = self._line_rows(g, -0.5, rows, self.ego_marking(road, -0.5), t)
+        right = self._line_rows(g, 0.5, rows, self.ego_marking(road, 0.5), t)
         if self.look.vehicles:
             polys = [poly.astype(np.float32) for _, poly in self.vehicles(t, road)]
             left, right = self._unoccluded(polys, rows, left), self._unoccluded(polys, rows, right)
@@ -756,17 +780,16 @@ class Renderer:
         img = img.reshape(-1, 2)
         return float(img[:, 1].mean()), [float(v) for v in img[:, 0]]
 
-    def _line_rows(self, g: dict, side: float, rows: list[int], kind: str | None, t: float = 0.0,
-                   paint: tuple[float, float, float] = (255.0, 255.0, 255.0)) -> list[float]:
+    def _line_rows(self, g: dict, side: float, rows: list[int], marking: Marking | None, t: float) -> list[float]:
         """Give the x of a line (side -0.5 left, +0.5 right) in the distorted frame at ``rows``; -2 where absent.
 
         The truth runs as far as the marking is visible: to the farthest paint in the frame
         (gaps between dashes and worn patches nearer than that are labelled through, as
         TuSimple's annotators do), and no farther than :attr:`visible_m`; paint that glare
         washes out (:meth:`washed_out`) is not visible.  A line with no paint
-        in the frame (``kind`` None, or every dash in view missing) has no truth.
+        in the frame (``marking`` None, or every dash in view missing) has no truth.
         """
-        if kind is None:
+        if marking is None:
             return [-2.0] * len(rows)
         z = np.geomspace(0.5, self.visible_m, 1500)
         x = self.centre(g, z) + side * g["width"]
@@ -780,8 +803,8 @@ class Renderer:
         ok = (cam[:, 2] > 0) & (und[:, 0] > -0.1 * w) & (und[:, 0] < 1.1 * w) & (und[:, 1] > -0.1 * h) & (
             und[:, 1] < 1.1 * h)
         seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
-        painted = seen & (self.paint_along(z + g["travelled"], kind == "dashed") > 0)
-        painted &= ~self.washed_out(t, und[:, 0], und[:, 1], paint)
+        painted = seen & (self.paint_along(z + g["travelled"], marking.dashed) > 0)
+        painted &= ~self.washed_out(t, und[:, 0], und[:, 1], marking.colour)
         if not painted.any():
             return [-2.0] * len(rows)
         ok &= z <= z[painted].max()
@@ -835,27 +858,51 @@ class Renderer:
                 f = f * ~(self.wear[(u / (DASH_M + GAP_M)).astype(np.int64) % self.wear.size] < 0.2)
         return f
 
-    def ego_paint(self, g: dict) -> tuple[str | None, str | None]:
-        """Give how the ego lane's left and right lines are painted: ``solid``, ``dashed`` or None (bare).
+    def road_markings(self, width: float) -> list[Marking]:
+        """Give the lines painted across the road, as the renderer paints them.
+
+        Parameters
+        ----------
+        width : float
+            The lane width, m.
+
+        Returns
+        -------
+        list of Marking
+            Each painted line; ``centre_m`` is across the road from the first lane's centre.
+        """
+        look, half = self.look, width / 2
+        if self.sc.conditions.double_yellow or look.left == "double-yellow":
+            out = [Marking(-half - 0.1, look.yellow, False, 0.1), Marking(-half + 0.1, look.yellow, False, 0.1)]
+        elif look.left == "white-dashed":
+            out = [Marking(-half, look.white, True, look.marking_m), Marking(-1.5 * width, look.white, False,
+                                                                               look.marking_m)]
+        elif look.left == "yellow":
+            out = [Marking(-half, look.yellow, False, look.marking_m)]
+        else:  # a bare edge
+            out = []
+        out.append(Marking(half, look.white, True, look.marking_m))
+        if look.right_edge_paint:
+            out.append(Marking(1.5 * width, look.white, False, look.marking_m))
+        return out
+
+    def ego_marking(self, g: dict, side: float) -> Marking | None:
+        """Give the marking on one side of the ego lane (:meth:`ego_lane`), or None where it is bare.
 
         Parameters
         ----------
         g : dict
             From :meth:`geometry` (relative to the first lane).
+        side : float
+            -0.5 for the left line, +0.5 for the right.
 
         Returns
         -------
-        tuple of (str or None)
-            The left and the right line.
+        Marking or None
+            The marking there (of a double line, the first).
         """
-        look = self.look
-        if self.sc.conditions.double_yellow or look.left in ("double-yellow", "yellow"):
-            first_left: str | None = "solid"
-        else:
-            first_left = "dashed" if look.left == "white-dashed" else None
-        if self.ego_lane(g) == 0:
-            return first_left, "dashed"
-        return "dashed", "solid" if look.right_edge_paint else None
+        at = (side + self.ego_lane(g)) * g["width"]
+        return next((m for m in self.road_markings(g["width"]) if abs(m.centre_m - at) <= 0.15), None)
 
     def glow(self, t: float, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Give the glare's glow at frame pixels (the sun low ahead), 0-1.
@@ -974,18 +1021,8 @@ class Renderer:
             flat = img.reshape(-1, 3)
             flat[idx] = flat[idx] * (1 - a) + a * np.asarray(color, np.float32)
 
-        yellow, white = look.yellow, look.white
-        if c.double_yellow or look.left == "double-yellow":
-            paint(-half - 0.1, yellow, False, width=0.1)
-            paint(-half + 0.1, yellow, False, width=0.1)
-        elif look.left == "white-dashed":
-            paint(-half, white, True)
-            paint(-1.5 * width, white, False)
-        elif look.left == "yellow":
-            paint(-half, yellow, False)
-        paint(half, white, True)
-        if look.right_edge_paint:
-            paint(1.5 * width, white, False)
+        for m in self.road_markings(width):
+            paint(m.centre_m, m.colour, m.dashed, width=m.width_m)
         shade = np.ones(rel.shape, np.float32)
         if c.tree_shadows:
             blob = self._tex(rel + 50 + look.shadow_skew * u, u, self.blobs, 1.2, 0.6)
