@@ -272,7 +272,11 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     >>> fit.coeffs_px.round(3).tolist(), round(fit.confidence, 2)
     ([0.001, -0.6, 215.0], 0.82)
     """
-    x, y = _marking(x, y, cfg)
+    return _fit_marking(*_marking(x, y, cfg), height_px, cfg)
+
+
+def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> LineFit | None:
+    """Fit the pixels :func:`_marking` kept (see :func:`fit_line`)."""
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
@@ -335,8 +339,9 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
     >>> fl.coeffs_px.round(3).tolist(), fr.coeffs_px.round(3).tolist()
     ([0.0, 0.0, 125.0], [0.0, 0.0, 275.0])
     """
-    fl = fit_line(left[0], left[1], height_px, cfg)
-    fr = fit_line(right[0], right[1], height_px, cfg)
+    left, right = _marking(*left, cfg), _marking(*right, cfg)  # once: the fit and the re-centring take them
+    fl = _fit_marking(*left, height_px, cfg)
+    fr = _fit_marking(*right, height_px, cfg)
     if fl is None or fr is None or cfg.parallel == 0:
         return fl, fr
     wl, wr = fl.n_pixels * fl.span**2 * fl.confidence, fr.n_pixels * fr.span**2 * fr.confidence
@@ -349,8 +354,7 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         # The weaker line moves more: up to ``parallel`` of the way, in proportion to the other's support.
         lam = cfg.parallel * pull
         ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
-        x, y = _marking(x, y, cfg)  # the pixels the fit took (the specks it left out stay out)
-        c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), y.astype(np.float64))))
+        c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), y.astype(np.float64))))  # on the pixels the fit took
         out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))
     return out[0], out[1]
 

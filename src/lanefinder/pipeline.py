@@ -112,6 +112,13 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
 
 
+def _check_frame(frame: np.ndarray) -> None:
+    """Raise a LaneFinderError unless ``frame`` is a BGR uint8 image."""
+    if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
+            or frame.dtype != np.uint8 or 0 in frame.shape):
+        raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+
+
 class LaneFinder:
     """Finds the lane in frames, keeping a track across calls to :meth:`process`.
 
@@ -233,9 +240,7 @@ class LaneFinder:
         LaneFinderError
             When ``frame`` is not a BGR uint8 image, or its size does not suit the camera.
         """
-        if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
-                or frame.dtype != np.uint8 or 0 in frame.shape):
-            raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+        _check_frame(frame)
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
@@ -286,9 +291,7 @@ class LaneFinder:
         self.reset()
         if not (selfcal_wanted(self.config) and self.config.selfcal.stills):
             return self.process(frame)
-        if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
-                or frame.dtype != np.uint8 or 0 in frame.shape):
-            raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+        _check_frame(frame)
         size = (frame.shape[1], frame.shape[0])
         if self._config_birdseye is None or self._config_birdseye.frame_size != size:
             self._birdseye = None
