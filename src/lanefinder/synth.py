@@ -551,6 +551,54 @@ def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
     return pitch @ yaw
 
 
+_GROUND_CACHE: dict[bytes, tuple] = {}
+_GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p; sequences of one camera and mount share one
+
+
+def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int) -> tuple:
+    """Give where every sub-pixel sample of the distorted frame meets the road (cached per camera and mount).
+
+    Returns the first row band holding road (``r0``, in sub-pixel rows, whole output rows), the
+    road mask below it, the road's lateral X and distance Z there (m, float32), the sky frame and
+    the sky of the band.  Undistorting every sample costs about a second at 720p, so sequences of
+    the same camera and mount reuse it (the arrays are read-only).
+    """
+    w, h = camera.image_size
+    key = b"|".join([np.asarray(camera.camera_matrix, np.float64).tobytes(),
+                     np.asarray(camera.dist_coeffs, np.float64).tobytes(), np.asarray(rot, np.float64).tobytes(),
+                     np.float64(height_m).tobytes(), np.int64([w, h, s]).tobytes()])
+    if key in _GROUND_CACHE:
+        return _GROUND_CACHE[key]
+    xs = (np.arange(w * s) + 0.5) / s - 0.5
+    ys = (np.arange(h * s) + 0.5) / s - 0.5
+    gx, gy = np.meshgrid(xs, ys)
+    pts = np.column_stack([gx.ravel(), gy.ravel()]).reshape(-1, 1, 2)
+    norm = cv2.undistortPoints(pts, camera.camera_matrix, camera.dist_coeffs).reshape(-1, 2)
+    rays = np.column_stack([norm, np.ones(len(norm))]) @ rot  # level-frame directions (R^T d)
+    dy = rays[:, 1]
+    ground = dy > 1e-4
+    t = np.where(ground, height_m / np.where(ground, dy, 1), 0.0)
+    grid = (h * s, w * s)
+    ground = ground.reshape(grid)
+    # Only the rows that hold road are shaded per frame; the sky is drawn once.
+    rows_with_road = np.flatnonzero(ground.any(axis=1))
+    r0 = int(rows_with_road[0]) if rows_with_road.size else grid[0]
+    r0 -= r0 % s  # whole output rows
+    X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
+    Z = (t * rays[:, 2]).reshape(grid)[r0:].astype(np.float32)
+    up = np.clip(-(dy / np.linalg.norm(rays, axis=1)).reshape(grid) * 4, 0, 1).astype(np.float32)
+    sky = np.stack([235 - 60 * up, 200 - 40 * up, 170 - 30 * up], -1)
+    sky_full = cv2.resize(sky, (w, h), interpolation=cv2.INTER_AREA)
+    out = (r0, ground[r0:].copy(), X, Z, sky_full, sky[r0:].copy())
+    for a in out[1:]:
+        a.flags.writeable = False
+    while len(_GROUND_CACHE) >= _GROUND_CACHE_SIZE:
+        _GROUND_CACHE.pop(next(iter(_GROUND_CACHE)))
+    _GROUND_CACHE[key] = out
+    return out
+
+
+
 class Renderer:
     """Render the frames of a scenario, and their ground truth, for one camera and mount.
 
@@ -600,32 +648,9 @@ class Renderer:
             cracks = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 5)
             cracks = (cracks - cracks.mean()) / (cracks.std() + 1e-6)
             self.cracks = (np.abs(cracks) < 0.06).astype(np.float32)  # thin meandering contours
-        # Rays of every sub-pixel sample of the distorted frame, once.
-        s = supersample
-        xs = (np.arange(w * s) + 0.5) / s - 0.5
-        ys = (np.arange(h * s) + 0.5) / s - 0.5
-        gx, gy = np.meshgrid(xs, ys)
-        pts = np.column_stack([gx.ravel(), gy.ravel()]).reshape(-1, 1, 2)
-        norm = cv2.undistortPoints(pts, camera.camera_matrix, camera.dist_coeffs).reshape(-1, 2)
-        rays = np.column_stack([norm, np.ones(len(norm))]) @ self.rot  # level-frame directions (R^T d)
-        dy = rays[:, 1]
-        ground = dy > 1e-4
-        t = np.where(ground, mount.height_m / np.where(ground, dy, 1), 0.0)
-        grid = (h * s, w * s)
-        ground = ground.reshape(grid)
-        # Only the rows that hold road are shaded per frame; the sky is drawn once.
-        rows_with_road = np.flatnonzero(ground.any(axis=1))
-        r0 = int(rows_with_road[0]) if rows_with_road.size else grid[0]
-        r0 -= r0 % s  # whole output rows
-        self.r0 = r0
-        self.ground = ground[r0:]
-        self.X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
-        self.Z = (t * rays[:, 2]).reshape(grid)[r0:].astype(np.float32)
-        up = np.clip(-(dy / np.linalg.norm(rays, axis=1)).reshape(grid) * 4, 0, 1).astype(np.float32)
-        sky = np.stack([235 - 60 * up, 200 - 40 * up, 170 - 30 * up], -1)
-        self.sky_full = cv2.resize(sky, (w, h), interpolation=cv2.INTER_AREA)
-        self.sky_band = sky[r0:]
-        self.size, self.s = (w, h), s
+        self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band = _ground_samples(
+            camera, self.rot, mount.height_m, supersample)
+        self.size, self.s = (w, h), supersample
 
     # -- geometry ---------------------------------------------------------------------------
     def geometry(self, t: float) -> dict:
