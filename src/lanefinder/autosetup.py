@@ -486,6 +486,29 @@ def line_segments(gray: np.ndarray, opts: SetupOptions) -> np.ndarray:
     return np.column_stack([seg[keep], length[keep]])
 
 
+def _weighted_pairs(w: np.ndarray, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Draw ``n`` pairs of distinct indices, each index with probability in proportion to ``w``.
+
+    The second of a pair is drawn again while it equals the first (a bounded number of
+    times; pairs still equal are left out), which is drawing it from the rest in proportion
+    to their weights: what ``Generator.choice(..., 2, replace=False, p=...)`` does, for all
+    pairs at once.
+    """
+    rng = np.random.default_rng(seed)
+    cdf = np.cumsum(w, dtype=np.float64)
+    cdf /= cdf[-1]
+    last = len(w) - 1
+    first = np.minimum(np.searchsorted(cdf, rng.random(n), side="right"), last)
+    second = np.minimum(np.searchsorted(cdf, rng.random(n), side="right"), last)
+    for _ in range(50):
+        same = np.flatnonzero(first == second)
+        if same.size == 0:
+            break
+        second[same] = np.minimum(np.searchsorted(cdf, rng.random(same.size), side="right"), last)
+    keep = first != second
+    return first[keep], second[keep]
+
+
 def vanishing_point(segments: np.ndarray, iterations: int = 500, tol_px: float = 4.0,
                     seed: int = 0) -> tuple[np.ndarray, float]:
     """Intersect segments robustly: RANSAC over pairs, then weighted least squares on the inliers.
@@ -530,9 +553,8 @@ def vanishing_point(segments: np.ndarray, iterations: int = 500, tol_px: float =
     lines = np.cross(np.column_stack([p1, np.ones(len(p1))]), np.column_stack([p2, np.ones(len(p2))]))
     lines /= np.hypot(lines[:, 0], lines[:, 1])[:, None]
     left = (p2[:, 0] - p1[:, 0]) * (p2[:, 1] - p1[:, 1]) < 0
-    rng = np.random.default_rng(seed)
-    pairs = np.array([rng.choice(len(lines), 2, replace=False, p=w / w.sum()) for _ in range(iterations)])
-    cands = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    first, second = _weighted_pairs(w, iterations, seed)
+    cands = np.cross(lines[first], lines[second])
     meet = np.abs(cands[:, 2]) >= 1e-9
     if not meet.any():
         raise LaneFinderError("the line segments do not meet: not a straight-road frame")
