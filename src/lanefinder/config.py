@@ -337,6 +337,10 @@ class SearchConfig(_Section):
         Least peak height, as a fraction of a window's pixels.
     centre_preference : float
         Score a pair of bases loses per lane width its centre is off the car.
+    pair_max_offset_m : float
+        Farthest a pair of bases' centre may be off the car, metres (0: half a lane width
+        either way, as before): a pair the car is not near the middle of (a line and the
+        kerb beside the next lane) is not this lane's.
     momentum : float
         Share of the last window move kept for the next (the rest follows the latest drift).
     empty_window_decay : float
@@ -378,6 +382,10 @@ class SearchConfig(_Section):
     max_peaks: Annotated[int, Field(ge=1, le=64)] = 8
     base_min_fraction: Fraction = 0.25
     centre_preference: Fraction = 0.3
+    # A new lane must hold the car within ``tracking.max_offset_m`` of its centre, and a base
+    # lies up to about half a metre off its line's x at the car in a bend: a pair centred
+    # farther off than this cannot start a lane.
+    pair_max_offset_m: Annotated[float, Field(ge=0, le=10)] = 1.5
     # Windows follow a bend: the next window moves by ``momentum`` of the last move plus the rest
     # of the latest drift; past an empty window the move shrinks by ``empty_window_decay``.
     momentum: Fraction = 0.5

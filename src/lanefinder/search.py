@@ -71,6 +71,9 @@ class SearchParams:
         Relative tolerance on the lane width when pairing bases.
     upper_histogram_weight, centre_preference, momentum, empty_window_decay : float
         As in the config.
+    pair_max_offset_px : float
+        Farthest a pair of bases' centre may be off the car, pixels (0: no limit beyond half
+        the expected width either way).
     peak_smoothing_px : int
         Box filter width on the base histogram, pixels.
     max_peaks : int
@@ -115,6 +118,7 @@ class SearchParams:
     shears_px: tuple[float, ...] = ()
     # Half-width of the band around each window's ridge that :func:`heading_search` keeps.
     heading_band_px: float = 0.0
+    pair_max_offset_px: float = 0.0
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
@@ -158,6 +162,7 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
         max_peaks=cfg.max_peaks,
         base_min_count=min_pixels * cfg.base_min_fraction,
         centre_preference=cfg.centre_preference,
+        pair_max_offset_px=cfg.pair_max_offset_m / xm_per_px,
         momentum=cfg.momentum,
         empty_window_decay=cfg.empty_window_decay,
         segment_reach=cfg.segment_reach,
@@ -337,8 +342,9 @@ def find_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[float
     """Find the left and right line's x at the bottom from a column histogram.
 
     Of all pairs of peaks, one left and one right of the car, whose spacing is the expected
-    lane width within the tolerance, the pair with the most support wins.  With no such
-    pair, the strongest peak is kept alone on its side of the car.
+    lane width within the tolerance and whose centre is within ``pair_max_offset_px`` of the
+    car, the pair with the most support wins.  With no such pair, the strongest peak is kept
+    alone on its side of the car.
 
     Parameters
     ----------
@@ -361,6 +367,13 @@ def find_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[float
     >>> b = np.zeros((300, 400), np.uint8); b[:, 122:128] = 1; b[:, 272:278] = 1
     >>> find_bases(histogram(b, 0.5), 200.0, sp)
     (126.0, 276.0)
+
+    Two strong lines left of the car (a double yellow line and the far kerb) do not make the
+    lane; the yellow line and the fainter white one the car is between do:
+
+    >>> b = np.zeros((300, 400), np.uint8); b[:, 20:30] = 1; b[:, 145:155] = 1; b[:, 292:296] = 1
+    >>> find_bases(histogram(b, 0.5), 200.0, sp)
+    (150.0, 296.0)
     """
     left, right, _ = _scored_bases(hist, car_x, cfg)
     return left, right
@@ -378,6 +391,8 @@ def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[fl
     li, ri = np.meshgrid(peaks, peaks, indexing="ij")
     gap = ri - li
     valid = (gap >= lo_w) & (gap <= hi_w) & (li < car_x + expected_width_px / 2) & (ri > car_x - expected_width_px / 2)
+    if cfg.pair_max_offset_px > 0:
+        valid &= np.abs((li + ri) / 2 - car_x) <= cfg.pair_max_offset_px
     if valid.any():
         # Support of both peaks, and a mild preference for a lane around the car.
         centre_penalty = np.abs((li + ri) / 2 - car_x) / expected_width_px
