@@ -67,14 +67,17 @@ def test_online_self_calibration_converges_within_five_seconds():
     cam = _camera(size, 800.0)
     r = Renderer(cam, Mount(height_m=1.5, pitch_deg=2.0), Scenario("straight", width_m=(3.7, 0.0)), seed=3)
     finder = LaneFinder(Config(), self_calibrate=True)
-    default_width = []
+    default_be = finder.birdseye(size)
     widths = []
     for i in range(5 * fps):
         res = finder.process(r.render(i / fps))
-        (default_width if res.setup == "default" else widths).append(res.width_m)
+        if res.setup != "default":
+            widths.append(res.width_m)
     assert finder.selfcal.state.source == "estimated" and finder.selfcal.state.updates >= 1
-    # The default set-up (another camera's) misreads this lane; the estimate reads it right.
-    assert abs(np.nanmedian(default_width) - 3.7) > 0.3
+    # The default set-up (another camera's) misreads this road (measured: widths by 17.8%, distances
+    # ahead by 404%, as the estimate reads it); the estimate reads the lane right.
+    err = setup_error(default_be, finder.birdseye(size))
+    assert abs(err["xm_pct"]) > 15 and abs(err["ym_pct"]) > 100
     last = [w for w in widths[-25:] if not math.isnan(w)]
     assert len(last) >= 20 and abs(np.median(last) - 3.7) < 0.15
     assert finder.selfcal.state.height_m == pytest.approx(1.5, rel=0.05)

@@ -751,7 +751,7 @@ class SelfCalConfig(_Section):
     enabled: bool = True
     every_frames: Annotated[int, Field(ge=1, le=1000)] = 4
     fast_frames: Annotated[int, Field(ge=0, le=1_000_000)] = 250
-    refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 25
+    refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 50
     min_frames: Annotated[int, Field(ge=1, le=1000)] = 8
     window_frames: Annotated[int, Field(ge=1, le=1000)] = 40
     work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
