@@ -110,3 +110,17 @@ def test_a_frame_with_no_visible_paint_counts_only_what_is_shown():
     assert shown.accuracy == 1.0 and shown.fp == 0.5 and shown.catastrophic_rate == 0.0
     none = evaluate(gt, {"a": hit, "b": {"lanes": [], "h_samples": rows}})
     assert none.accuracy == 1.0 and none.fp == 0.0 and none.no_lane_rate == 0.0
+
+
+def test_the_lateral_error_leaves_out_a_line_without_paint():
+    # A bare road edge on the left: the truth places the lane's left boundary (x 300 at the 6 m row)
+    # but has no paint to label there; the prediction's left line sits on the asphalt edge, 40 px off.
+    rows = [600, 700]
+    lateral = {"6": {"y": 650.0, "m_per_px": 0.01, "x": [300.0, 900.0]}}
+    gt = {"a": {"lanes": [[850.0, 950.0]], "h_samples": rows, "left_x": [-2.0, -2.0], "right_x": [850.0, 950.0],
+                "lateral": lateral}}
+    pred = {"a": {"lanes": [[210.0, 310.0], [852.0, 952.0]], "h_samples": rows}}
+    assert evaluate(gt, pred).lateral_err_6m_p90 == pytest.approx(0.02)
+    # Painted on both sides, the same left line counts (0.40 m off).
+    gt["a"] = {**gt["a"], "lanes": [[250.0, 350.0], [850.0, 950.0]], "left_x": [250.0, 350.0]}
+    assert evaluate(gt, pred).lateral_err_6m_median == pytest.approx(0.21)

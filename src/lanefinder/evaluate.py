@@ -182,7 +182,8 @@ class EvalReport:
         Truth points per band.
     lateral_err_6m_median, lateral_err_6m_p90, lateral_err_20m_median, lateral_err_20m_p90 : float or None
         Lateral error of the lines 6 m and 20 m ahead, m, where the truth gives ``lateral``
-        and a prediction reaches that row.
+        and a prediction reaches that row; a line without paint in view (no row truth) is
+        not scored.
     no_lane_rate : float or None
         Share of the frames whose truth shows at least one line where the prediction shows no
         lane at all ("lost" while paint is visible); None when no truth frame shows a line.
@@ -519,13 +520,22 @@ def _count_bands(g: dict, lanes: list, band_hits: tuple[np.ndarray, np.ndarray])
 
 
 def _lateral_errors(g: dict, lanes: list, dist: str) -> list[float]:
-    """Give the lateral errors (m) of the predicted lines at the row ``dist`` m ahead, where both exist."""
+    """Give the lateral errors (m) of the predicted lines at the row ``dist`` m ahead, where both exist.
+
+    A line of the truth's ``lateral`` whose row truth (``left_x``/``right_x``) is empty has no
+    paint in view (a bare road edge, every dash missing): like the TuSimple points, it is not scored.
+    """
     at = (g.get("lateral") or {}).get(dist)
     if not at or not lanes:
         return []
     ys = np.asarray(g["h_samples"], float)
+    painted = [any(v >= 0 for v in g[k]) if k in g else True for k in ("left_x", "right_x")]
+    if len(at["x"]) != len(painted):
+        painted = [True] * len(at["x"])
     out = []
-    for x_gt in at["x"]:
+    for x_gt, has_paint in zip(at["x"], painted, strict=True):
+        if not has_paint:
+            continue
         best = None
         for pl in lanes:
             pl = np.asarray(pl, float)
