@@ -8,20 +8,23 @@
 3. Still weak: lines that cross the view at an angle (:func:`~lanefinder.search.heading_search`);
    that pair is taken only when both its lines are confident and together more confident, and,
    without a track to hold it to, when it passes the lane checks.
-4. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
+4. A blind pair whose lines' shapes disagree (a faint line lost by its windows in a tight bend):
+   the weaker line is searched again along the stronger one's shape, and taken when the pair
+   then passes the lane checks.
+5. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
    (``tracking.yellow_line_side``), and no solid marking down the middle of the lane.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .checks import check_line_inside, is_yellow, pair_problems, yellow_side
 from .config import Config
-from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, px_to_m
+from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, poly_x, px_to_m
 from .lane import Line
 from .search import Pixels, SearchParams, SearchResult, blind_search, heading_search, search_around, search_params
 from .tracking import Rules, Track, implied_lane
@@ -171,7 +174,43 @@ def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) ->
             take = not pair_problems(lm, rm, track.tracked_width(cfg), m.rules.lookahead_m, cfg)
         if take:
             found, fits = slant, slant_fits
+    if blind and fits[0] is not None and fits[1] is not None:
+        found, fits = _along_partner(binary, pixels, found, fits, track, m)
     return found, fits, blind
+
+
+def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits: Fits, track: Track,
+                   m: Measurer) -> tuple[SearchResult, Fits]:
+    """Step 4: a blind pair whose shapes disagree: the weaker line searched along the stronger one's shape.
+
+    Windows that lose a faint line in a tight bend go on straight up and give it another
+    shape than its partner's (the ``parallel`` or ``curvature`` check fails).  The weaker line
+    is then looked for in a band (``search.around_margin_m``) around the stronger line's fit
+    moved to the weaker line's x at the bottom row.  That search is taken only when its pair
+    passes every lane check and its weaker line is confident and no less confident than before.
+    """
+    cfg = m.config.tracking
+    lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in fits)  # type: ignore[union-attr]
+    width = track.tracked_width(cfg)
+    if not {"parallel", "curvature"} & set(pair_problems(lm, rm, width, m.rules.lookahead_m, cfg)):
+        return found, fits
+    strong = 0 if fits[0].confidence >= fits[1].confidence else 1  # type: ignore[union-attr]
+    weak = 1 - strong
+    shape, own = fits[strong].coeffs_px, fits[weak].coeffs_px  # type: ignore[union-attr]
+    bottom = float(m.scale.height_px)
+    moved = shape + np.array([0.0, 0.0, poly_x(own, bottom) - poly_x(shape, bottom)])
+    priors = (moved, shape) if weak == 0 else (shape, moved)
+    again = search_around(binary, priors[0], priors[1], m.search.around_margin_px, pixels)
+    new = _fit(again, m)
+    if new[0] is None or new[1] is None:
+        return found, fits
+    lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in new)  # type: ignore[union-attr]
+    before = fits[weak].confidence  # type: ignore[union-attr]
+    if pair_problems(lm, rm, width, m.rules.lookahead_m, cfg) or new[weak].confidence < max(cfg.min_confidence,
+                                                                                             before):
+        return found, fits
+    return replace(again, method=f"{found.method}+partner", histogram=found.histogram,
+                   bases_px=found.bases_px), new
 
 
 def _line(fit: LineFit | None, ys: np.ndarray, scale: Scale) -> Line | None:
