@@ -487,24 +487,25 @@ def line_segments(gray: np.ndarray, opts: SetupOptions) -> np.ndarray:
 
 
 def _weighted_pairs(w: np.ndarray, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Draw ``n`` pairs of distinct indices, each index with probability in proportion to ``w``.
+    """Draw up to ``n`` pairs of distinct indices, each in proportion to ``w``, all at once.
 
-    The second of a pair is drawn again while it equals the first (a bounded number of
-    times; pairs still equal are left out), which is drawing it from the rest in proportion
-    to their weights: what ``Generator.choice(..., 2, replace=False, p=...)`` does, for all
-    pairs at once.
+    The first of a pair is drawn in proportion to the weights, the second in proportion to
+    the weights of the rest (the first's share of the unit interval is stepped over): what
+    ``Generator.choice(..., 2, replace=False, p=...)`` does, pair by pair.  A pair that
+    rounding still leaves equal is left out; fewer than two positive weights give no pairs.
     """
-    rng = np.random.default_rng(seed)
-    cdf = np.cumsum(w, dtype=np.float64)
-    cdf /= cdf[-1]
+    w = np.asarray(w, np.float64)
+    if np.count_nonzero(w > 0) < 2:
+        return np.empty(0, np.intp), np.empty(0, np.intp)
+    p = w / w.sum()
+    cdf = np.cumsum(p)
+    start = cdf - p  # where each index's share of [0, 1) begins
     last = len(w) - 1
+    rng = np.random.default_rng(seed)
     first = np.minimum(np.searchsorted(cdf, rng.random(n), side="right"), last)
-    second = np.minimum(np.searchsorted(cdf, rng.random(n), side="right"), last)
-    for _ in range(50):
-        same = np.flatnonzero(first == second)
-        if same.size == 0:
-            break
-        second[same] = np.minimum(np.searchsorted(cdf, rng.random(same.size), side="right"), last)
+    r = rng.random(n) * (1 - p[first])
+    r += p[first] * (r >= start[first])
+    second = np.minimum(np.searchsorted(cdf, r, side="right"), last)
     keep = first != second
     return first[keep], second[keep]
 
@@ -554,6 +555,8 @@ def vanishing_point(segments: np.ndarray, iterations: int = 500, tol_px: float =
     lines /= np.hypot(lines[:, 0], lines[:, 1])[:, None]
     left = (p2[:, 0] - p1[:, 0]) * (p2[:, 1] - p1[:, 1]) < 0
     first, second = _weighted_pairs(w, iterations, seed)
+    if first.size == 0:
+        raise LaneFinderError("too few line segments of any length: not a road frame with visible lane lines")
     cands = np.cross(lines[first], lines[second])
     meet = np.abs(cands[:, 2]) >= 1e-9
     if not meet.any():

@@ -196,7 +196,8 @@ def _across_m(left_m: np.ndarray, right_m: np.ndarray, d_m: float) -> float:
     """Give the lane's width d_m ahead measured across the lines (not along a row), metres.
 
     Lines heading off at slope s are ``1 / sqrt(1 + s^2)`` as far apart across them as along
-    the row: in a tight curve two parallel lines grow apart along the rows ahead.
+    the row: in a tight curve two parallel lines grow apart along the rows ahead.  (The width
+    check, :func:`check_width`, still takes the width along the row at the car.)
     """
     slope = (2 * left_m[0] * d_m + left_m[1] + 2 * right_m[0] * d_m + right_m[1]) / 2
     return float((poly_x(right_m, d_m) - poly_x(left_m, d_m)) / math.sqrt(1 + slope * slope))

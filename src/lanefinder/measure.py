@@ -152,7 +152,7 @@ def _keep_better(found: SearchResult, fits: Fits, again: SearchResult, m: Measur
 
 
 def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) -> tuple[SearchResult, Fits, bool]:
-    """Search and fit with the retry policy (steps 1-3 of the module docstring)."""
+    """Search and fit with the retry policy (steps 1-4 of the module docstring)."""
     sp, scale, cfg = m.search, m.scale, m.config.tracking
     blind = track.needs_blind_search(cfg)
     if blind:
@@ -170,13 +170,19 @@ def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) ->
         c_old = max(_conf(fits[0]), 0.0) + max(_conf(fits[1]), 0.0)
         take = not _weak(slant_fits, m) and c_new > c_old
         if take and blind:
-            lm, rm = (px_to_m(f.coeffs_px, scale) for f in slant_fits)  # type: ignore[union-attr]
-            take = not pair_problems(lm, rm, track.tracked_width(cfg), m.rules.lookahead_m, cfg)
+            take = not _pair_problems(slant_fits, track, m)
         if take:
             found, fits = slant, slant_fits
     if blind and fits[0] is not None and fits[1] is not None:
         found, fits = _along_partner(binary, pixels, found, fits, track, m)
     return found, fits, blind
+
+
+def _pair_problems(fits: Fits, track: Track, m: Measurer) -> list[str]:
+    """Give the lane checks' reasons against a pair of pixel fits (both present)."""
+    cfg = m.config.tracking
+    lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in fits)  # type: ignore[union-attr]
+    return pair_problems(lm, rm, track.tracked_width(cfg), m.rules.lookahead_m, cfg)
 
 
 def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits: Fits, track: Track,
@@ -186,28 +192,25 @@ def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits
     Windows that lose a faint line in a tight bend go on straight up and give it another
     shape than its partner's (the ``parallel`` or ``curvature`` check fails).  The weaker line
     is then looked for in a band (``search.around_margin_m``) around the stronger line's fit
-    moved to the weaker line's x at the bottom row.  That search is taken only when its pair
-    passes every lane check and its weaker line is confident and no less confident than before.
+    moved to the weaker line's x at the bottom row, and the stronger one around its own fit.
+    That search is taken only when its pair passes every lane check, both its lines are
+    confident (``tracking.min_confidence``) and the weaker one is no less so than before.
     """
-    cfg = m.config.tracking
-    lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in fits)  # type: ignore[union-attr]
-    width = track.tracked_width(cfg)
-    if not {"parallel", "curvature"} & set(pair_problems(lm, rm, width, m.rules.lookahead_m, cfg)):
-        return found, fits
+    min_conf = m.config.tracking.min_confidence
     strong = 0 if fits[0].confidence >= fits[1].confidence else 1  # type: ignore[union-attr]
     weak = 1 - strong
+    if fits[strong].confidence < min_conf or not {"parallel", "curvature"} & set(  # type: ignore[union-attr]
+            _pair_problems(fits, track, m)):
+        return found, fits
     shape, own = fits[strong].coeffs_px, fits[weak].coeffs_px  # type: ignore[union-attr]
-    bottom = float(m.scale.height_px)
+    bottom = float(m.scale.height_px)  # the view's bottom row, where the car is
     moved = shape + np.array([0.0, 0.0, poly_x(own, bottom) - poly_x(shape, bottom)])
     priors = (moved, shape) if weak == 0 else (shape, moved)
     again = search_around(binary, priors[0], priors[1], m.search.around_margin_px, pixels)
     new = _fit(again, m)
-    if new[0] is None or new[1] is None:
+    if new[0] is None or new[1] is None or min(new[0].confidence, new[1].confidence) < min_conf:
         return found, fits
-    lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in new)  # type: ignore[union-attr]
-    before = fits[weak].confidence  # type: ignore[union-attr]
-    if pair_problems(lm, rm, width, m.rules.lookahead_m, cfg) or new[weak].confidence < max(cfg.min_confidence,
-                                                                                             before):
+    if new[weak].confidence < fits[weak].confidence or _pair_problems(new, track, m):  # type: ignore[union-attr]
         return found, fits
     return replace(again, method=f"{found.method}+partner", histogram=found.histogram,
                    bases_px=found.bases_px), new

@@ -551,11 +551,12 @@ def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
     return pitch @ yaw
 
 
-_GROUND_CACHE: dict[bytes, tuple] = {}
+_GroundSamples = tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+_GROUND_CACHE: dict[bytes, _GroundSamples] = {}
 _GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p; sequences of one camera and mount share one
 
 
-def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int) -> tuple:
+def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int) -> _GroundSamples:
     """Give where every sub-pixel sample of the distorted frame meets the road (cached per camera and mount).
 
     Returns the first row band holding road (``r0``, in sub-pixel rows, whole output rows), the
@@ -596,7 +597,6 @@ def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: in
         _GROUND_CACHE.pop(next(iter(_GROUND_CACHE)))
     _GROUND_CACHE[key] = out
     return out
-
 
 
 class Renderer:
