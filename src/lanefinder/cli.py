@@ -335,7 +335,7 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
                         pitch_deg=pitch_deg if pitch_deg is not None else mount.pitch_deg)
     cam = load_camera(camera_path) if camera_path else None
     out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet, randomise=randomise)
-    click.echo(f"wrote {out}/video.mp4, gt.jsonl, camera.json, config.toml")
+    click.echo(f"wrote {out}/video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json")
 
 
 @main.command("eval")
@@ -355,6 +355,8 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
         check_not_input(json_path, [gt_path, pred_path])
     report = evaluate(read_ground_truth(gt_path), read_predictions(pred_path))
     click.echo(report.table(name))
+    if report.band_accuracy or report.lateral_err_6m_median is not None:  # the truth gives distances
+        click.echo(report.band_table(name))
     if report.missing_frames:
         click.echo(f"{report.missing_frames} ground-truth frame(s) had no prediction (scored as no lane)")
     if json_path:
