@@ -389,13 +389,13 @@ def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[fl
     lo_w, hi_w = expected_width_px * (1 - tolerance), expected_width_px * (1 + tolerance)
     # Pairs: every left candidate with every right candidate at a plausible spacing.
     li, ri = np.meshgrid(peaks, peaks, indexing="ij")
-    gap = ri - li
+    gap, off_centre = ri - li, np.abs((li + ri) / 2 - car_x)
     valid = (gap >= lo_w) & (gap <= hi_w) & (li < car_x + expected_width_px / 2) & (ri > car_x - expected_width_px / 2)
     if cfg.pair_max_offset_px > 0:
-        valid &= np.abs((li + ri) / 2 - car_x) <= cfg.pair_max_offset_px
+        valid &= off_centre <= cfg.pair_max_offset_px
     if valid.any():
         # Support of both peaks, and a mild preference for a lane around the car.
-        centre_penalty = np.abs((li + ri) / 2 - car_x) / expected_width_px
+        centre_penalty = off_centre / expected_width_px
         score = np.where(valid, (hs[li] + hs[ri]) * (1 - cfg.centre_preference * centre_penalty), -np.inf)
         i, j = np.unravel_index(int(np.argmax(score)), score.shape)
         return float(li[i, j]), float(ri[i, j]), float(score[i, j])
