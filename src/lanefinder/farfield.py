@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from .birdseye import BirdsEye
 from .config import FarConfig
@@ -82,31 +81,44 @@ class FarView:
         return cv2.remap(frame, self.map1, self.map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
     def strip(self, frame: np.ndarray, centre_px: np.ndarray, half_px: int) -> tuple[np.ndarray, np.ndarray]:
-        """Map a strip of the far view around a line to an image, in one small remap.
+        """Map strips of the far view around lines to one image, in one small remap.
 
         Parameters
         ----------
         frame : (H, W, 3) uint8 ndarray
             A raw frame of the set-up's size.
-        centre_px : (K,) ndarray
-            The strip's centre in each far row, far-view columns.
+        centre_px : (K,) or (L, K) ndarray
+            The strip's centre in each far row, far-view columns; one row of centres per line.
         half_px : int
             Half its width, columns.
 
         Returns
         -------
-        image : (K, 2 * half_px + 1, 3) uint8 ndarray
-            The strip (shifted inwards where it would leave the far view).
-        col0 : (K,) int ndarray
+        image : (L * K, 2 * half_px + 1, 3) uint8 ndarray
+            The strips (shifted inwards where they would leave the far view), one below the
+            other (L = 1 for one line's centres).
+        col0 : ndarray, the shape of ``centre_px``
             The far-view column of each row's first pixel.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> from lanefinder.config import FarConfig
+        >>> fv = make_farview(LaneFinder().birdseye((1280, 720)), FarConfig())
+        >>> centres = np.array([np.full(len(fv.v_px), 1100.0), np.full(len(fv.v_px), 1250.0)])
+        >>> image, col0 = fv.strip(np.zeros((720, 1280, 3), np.uint8), centres, 60)
+        >>> image.shape, col0.shape, int(col0[1, 0])
+        ((54, 121, 3), (2, 27), 1190)
         """
+        centre = np.asarray(centre_px, np.float64)
         n = min(2 * half_px + 1, self.width)
-        col0 = np.clip(np.round(np.asarray(centre_px, np.float64)).astype(np.int64) - half_px, 0, self.width - n)
-        rows = np.arange(len(col0))
-        # Each row's strip is a slice of the tables: cut them through windows, not pixel by pixel.
-        map1 = sliding_window_view(self.map1, n, axis=1)[rows, col0].transpose(0, 2, 1)
-        map2 = sliding_window_view(self.map2, n, axis=1)[rows, col0]
-        image = cv2.remap(frame, np.ascontiguousarray(map1), map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        col0 = np.clip(np.round(centre).astype(np.intp) - half_px, 0, self.width - n)
+        # Each row's strip is a run of the flattened tables: one gather for every line's rows.
+        first = (np.arange(centre.shape[-1]) * self.width + col0).reshape(-1, 1)
+        idx = first + np.arange(n)
+        map1 = np.take(self.map1.reshape(-1, 2), idx, axis=0)  # (take: a tenth of fancy indexing's cost here)
+        image = cv2.remap(frame, map1, np.take(self.map2.reshape(-1), idx), cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
         return image, col0
 
 
@@ -271,7 +283,7 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
             last_d = d
     if len(found_s) < cfg.min_rows:
         return None
-    c1, c2 = _fit_correction(np.asarray(found_s), np.asarray(found_r))
+    c1, c2 = _fit_correction(found_s, found_r)
     a, b, c = (float(v) for v in fit_px)
     far_fit = np.array([a + c2, b - c1, c])  # x(v) + c1*s + c2*s^2 with s = -v (bird's-eye x)
     end_s = max(found_s)
@@ -314,24 +326,35 @@ class _Sums:
         return c1 * s + c2 * s * s
 
 
-def _fit_correction(s: np.ndarray, r: np.ndarray) -> tuple[float, float]:
-    """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs."""
-    keep = np.ones(len(s), bool)
+def _fit_correction(s: list[float], r: list[float]) -> tuple[float, float]:
+    """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs.
+
+    In plain floats: a line's far part has a few dozen points at most.
+    """
+    keep = list(range(len(s)))
     c1 = c2 = 0.0
     for _ in range(2):
-        if keep.sum() < 2:
+        if len(keep) < 2:
             break
-        ss, rr = s[keep], r[keep]
-        s2 = ss * ss
-        a11, a12, a22 = float(s2.sum()), float((s2 * ss).sum()), float((s2 * s2).sum())
-        b1, b2 = float((rr * ss).sum()), float((rr * s2).sum())
+        a11 = a12 = a22 = b1 = b2 = 0.0
+        for i in keep:
+            si, ri = s[i], r[i]
+            s2 = si * si
+            a11 += s2
+            a12 += s2 * si
+            a22 += s2 * s2
+            b1 += ri * si
+            b2 += ri * s2
         det = a11 * a22 - a12 * a12
         if det > 1e-9 * a11 * a22:
             c1, c2 = (b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det
         else:
             c1, c2 = b1 / a11, 0.0
-        res = np.abs(c1 * s + c2 * s * s - r)
-        keep = res <= 3 * (float(np.median(res[keep])) + 0.5)
+        res = [abs(c1 * si + c2 * si * si - ri) for si, ri in zip(s, r, strict=True)]
+        kept = sorted(res[i] for i in keep)
+        half = len(kept) // 2
+        median = kept[half] if len(kept) % 2 else 0.5 * (kept[half - 1] + kept[half])
+        keep = [i for i, e in enumerate(res) if e <= 3 * (median + 0.5)]
     return c1, c2
 
 

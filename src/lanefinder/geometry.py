@@ -210,26 +210,52 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
     )
 
 
-def _design(y: np.ndarray, degree: int) -> tuple[np.ndarray, float, float]:
-    """Give the basis rows (t^2, t, 1) or (t, 1) of the fit, with y centred and scaled as t = (y - y0)/ys."""
-    y0, ys = float(y.mean()), float(np.ptp(y)) or 1.0
-    t = (y - y0) / ys
-    return (np.vstack([t * t, t, np.ones_like(t)]) if degree == 2 else np.vstack([t, np.ones_like(t)])), y0, ys
+def _powers(y: np.ndarray, degree: int) -> tuple[np.ndarray, float, float]:
+    """Give the powers t^0..t^(2*degree) of the centred and scaled rows t = (y - y0)/ys, one row each.
+
+    The first ``degree + 1`` rows are the fit's basis (1, t[, t^2]); all of them give the
+    normal equations' moments in one product with the weights.
+    """
+    y0, ys = float(y.mean()), float(y.max() - y.min()) or 1.0
+    powers = np.empty((2 * degree + 1, y.size))
+    powers[0] = 1.0
+    np.subtract(y, y0, out=powers[1])
+    powers[1] /= ys
+    for k in range(2, 2 * degree + 1):
+        np.multiply(powers[k - 1], powers[1], out=powers[k])
+    return powers, y0, ys
 
 
-def _solve(basis: np.ndarray, x: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Weighted least squares on a basis, via the normal equations (lstsq when they are singular)."""
-    weighted = basis * w
-    try:
-        return np.linalg.solve(weighted @ basis.T, weighted @ x)
-    except np.linalg.LinAlgError:
-        sw = np.sqrt(w)
-        return np.linalg.lstsq(basis.T * sw[:, None], x * sw, rcond=None)[0]
+def _solve(powers: np.ndarray, x: np.ndarray, w: np.ndarray | None) -> np.ndarray:
+    """Weighted least squares x ~ coef @ basis (basis = the first rows of ``powers``); w None is all ones.
+
+    The normal equations come from the weighted moments of t (a Hankel matrix), solved in
+    closed form (the matrices are 2x2 or 3x3); lstsq takes over when they are singular.
+    """
+    m = powers.shape[0] // 2 + 1
+    basis = powers[:m]
+    mo = (powers.sum(axis=1) if w is None else powers @ w).tolist()
+    b = (basis @ (x if w is None else w * x)).tolist()
+    if m == 2:
+        det = mo[0] * mo[2] - mo[1] * mo[1]
+        if det > 1e-12 * mo[0] * mo[2]:
+            return np.array([(b[0] * mo[2] - b[1] * mo[1]) / det, (mo[0] * b[1] - mo[1] * b[0]) / det])
+    else:  # Cramer's rule on the symmetric [[m0 m1 m2] [m1 m2 m3] [m2 m3 m4]]
+        m0, m1, m2, m3, m4 = mo
+        c00, c01, c02 = m2 * m4 - m3 * m3, m2 * m3 - m1 * m4, m1 * m3 - m2 * m2
+        det = m0 * c00 + m1 * c01 + m2 * c02
+        if det > 1e-12 * m0 * m2 * m4:
+            c11, c12, c22 = m0 * m4 - m2 * m2, m1 * m2 - m0 * m3, m0 * m2 - m1 * m1
+            return np.array([(c00 * b[0] + c01 * b[1] + c02 * b[2]) / det,
+                             (c01 * b[0] + c11 * b[1] + c12 * b[2]) / det,
+                             (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det])
+    sw = np.ones_like(x) if w is None else np.sqrt(w)
+    return np.linalg.lstsq(basis.T * sw[:, None], x * sw, rcond=None)[0]
 
 
 def _in_y(coef: np.ndarray, y0: float, ys: float) -> np.ndarray:
-    """Give (a, b, c) of x = a*y^2 + b*y + c from the coefficients in t = (y - y0)/ys."""
-    p, q, r = coef if coef.size == 3 else np.r_[0.0, coef]
+    """Give (a, b, c) of x = a*y^2 + b*y + c from the coefficients (1, t[, t^2]) in t = (y - y0)/ys."""
+    r, q, p = coef if coef.size == 3 else np.r_[coef, 0.0]
     return np.array([p / ys**2, q / ys - 2 * p * y0 / ys**2, p * y0**2 / ys**2 - q * y0 / ys + r])
 
 
@@ -237,7 +263,7 @@ def _marking(x: np.ndarray, y: np.ndarray, cfg: FitParams) -> tuple[np.ndarray, 
     """Keep a line's pixels in the bands along the road that hold enough paint (specks are not a marking)."""
     if cfg.band_min_pixels <= 0 or not x.size:
         return x, y
-    band = (np.asarray(y) // cfg.band_rows).astype(np.intp)
+    band = np.asarray(y).astype(np.intp) // cfg.band_rows  # rows: whole pixels, >= 0
     keep = np.bincount(band)[band] >= cfg.band_min_pixels
     return x[keep], y[keep]
 
@@ -291,19 +317,20 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     y = y.astype(np.float64)
     span = float(np.ptp(y)) / height_px
     degree = 2 if span >= cfg.min_span_fraction else 1
-    basis, y0, ys = _design(y, degree)  # built once for every reweighting
-    w = np.ones_like(x)
-    coef = _solve(basis, x, w)
+    powers, y0, ys = _powers(y, degree)  # built once for every reweighting
+    basis = powers[: degree + 1]
+    w = None
+    coef = _solve(powers, x, w)
     for _ in range(cfg.robust_iterations):
         r = np.abs(x - coef @ basis)
         w = np.minimum(1.0, cfg.huber_px / np.maximum(r, 1e-9))
-        coef = _solve(basis, x, w)
+        coef = _solve(powers, x, w)
     r = x - coef @ basis
-    residual = float(np.sqrt((w * r * r).sum() / w.sum()))
+    residual = float(np.sqrt((r * r).mean() if w is None else (w * r * r).sum() / w.sum()))
     coeffs = _in_y(coef, y0, ys)
     support = min(1.0, n / cfg.support_pixels)
     quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
-    confidence = float(np.clip(math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality, 0.0, 1.0))
+    confidence = min(1.0, max(0.0, math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality))
     return LineFit(coeffs, n, residual, span, confidence)
 
 

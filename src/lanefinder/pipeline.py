@@ -345,15 +345,19 @@ class LaneFinder:
             return result
         cfg = self.config.far
         half = math.ceil(cfg.strip_m / be.xm_per_px)
+        sides = [side for side in SIDES if getattr(result, side).shown]
+        # Only strips around the lines' extensions are mapped and thresholded: one image for both.
+        centres = [poly_x(getattr(result, side).fit_px, fv.v_px) - fv.u0_px for side in sides]
+        strips, col0 = fv.strip(frame, np.array(centres), half)
+        k, tcfg = len(fv.v_px), self._far_threshold()
+        if tcfg.strategy == "ridge" and tcfg.ridge.noise_factor == 0:  # row by row: one call for the strips
+            far_binary = threshold(strips, tcfg, be.xm_per_px)
+        else:  # a filter across rows would mix the strips at their seam
+            far_binary = np.vstack([threshold(strips[i:i + k], tcfg, be.xm_per_px) for i in range(0, len(strips), k)])
         lines = {}
-        for side in SIDES:
+        for i, side in enumerate(sides):
             line = getattr(result, side)
-            if not line.shown:
-                continue
-            # Only a strip around the line's extension is mapped and thresholded.
-            strip, col0 = fv.strip(frame, poly_x(line.fit_px, fv.v_px) - fv.u0_px, half)
-            far_binary = threshold(strip, self._far_threshold(), be.xm_per_px)
-            far = follow_line(far_binary, fv, line.fit_px, be.xm_per_px, cfg, col0)
+            far = follow_line(far_binary[i * k:(i + 1) * k], fv, line.fit_px, be.xm_per_px, cfg, col0[i])
             if far is not None:
                 lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,
                                       range_m=far.range_m if line.found else line.range_m)

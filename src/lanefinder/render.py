@@ -6,6 +6,9 @@ Annotators are plain functions that draw onto a frame and return it; they compos
 
 from __future__ import annotations
 
+import math
+from functools import lru_cache
+
 import cv2
 import numpy as np
 
@@ -83,7 +86,8 @@ def _far_points(line: Line, n: int) -> np.ndarray | None:
     """Give a line's far part as bird's-eye points, denser towards the far end; None without one."""
     if line.far_fit_px is None or not line.far_end_px < 0:
         return None
-    y = -np.geomspace(-line.far_end_px, 0.5, n)
+    start = -line.far_end_px  # geometric steps from there to half a pixel beyond the top edge
+    y = -start * np.exp(np.linspace(0.0, 1.0, n) * math.log(0.5 / start))
     return np.column_stack([poly_x(line.far_fit_px, y), y])
 
 
@@ -220,6 +224,16 @@ def hud_lines(result: LaneResult) -> list[str]:
     ]
 
 
+#: Every digit has the same advance in the HUD's font: widths are measured with them as 0.
+_DIGITS_AS_ZERO = str.maketrans("123456789", "000000000")
+
+
+@lru_cache(maxsize=256)
+def _text_width(text: str, scale: float, thick: int) -> int:
+    """Give a HUD line's width in pixels (``cv2.getTextSize`` costs tens of microseconds a call)."""
+    return int(cv2.getTextSize(text, FONT, scale, thick)[0][0])
+
+
 def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20, 20),
              warn: bool = False) -> np.ndarray:
     """Draw a text box in the top-left corner, in place; it scales with the frame height.
@@ -251,7 +265,7 @@ def draw_hud(frame: np.ndarray, lines: list[str], origin: tuple[int, int] = (20,
     scale = max(0.4, h / 720 * 0.9)
     thick = max(1, round(2 * h / 720))
     line_h = int(34 * scale / 0.9)
-    width = max(cv2.getTextSize(s, FONT, scale, thick)[0][0] for s in lines) + 20
+    width = max(_text_width(s.translate(_DIGITS_AS_ZERO), scale, thick) for s in lines) + 20
     x, y = origin
     box = frame[y:y + line_h * len(lines) + 14, x:x + width]
     cv2.convertScaleAbs(box, box, 0.35)
