@@ -263,20 +263,22 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     sums = _Sums()
     searched = 0
     d_rows, s_rows, u_rows = fv.d_m.tolist(), s.tolist(), u_fit.tolist()
+    count_at, colsum_at = count.item, colsum.item  # (Python ints: the loop's indexing stays cheap)
+    max_gap_m, window_m, growth = cfg.max_gap_m, cfg.window_m, cfg.window_growth
     for k in range(k_rows - 1, -1, -1):  # nearest row first
         d = d_rows[k]
-        if d - last_d > cfg.max_gap_m:
+        if d - last_d > max_gap_m:
             break
         predicted = u_rows[k] + sums.correction(s_rows[k])
-        half = (cfg.window_m + cfg.window_growth * (d - d_top)) / xm_per_px
+        half = (window_m + growth * (d - d_top)) / xm_per_px
         lo, hi = math.floor(predicted - half), math.ceil(predicted + half) + 1
         if lo < 0 or hi > fv.width or lo < offsets[k] or hi > offsets[k] + width:
             break  # the line leaves the view (or its strip)
         searched += 1
         a_, b_ = lo - offsets[k], hi - offsets[k]
-        n = int(count[k, b_] - count[k, a_])
+        n = count_at(k, b_) - count_at(k, a_)
         if n:
-            r = offsets[k] + float(colsum[k, b_] - colsum[k, a_]) / n - u_rows[k]
+            r = offsets[k] + (colsum_at(k, b_) - colsum_at(k, a_)) / n - u_rows[k]
             found_s.append(s_rows[k])
             found_r.append(r)
             sums.add(s_rows[k], r)
