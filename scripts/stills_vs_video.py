@@ -8,7 +8,9 @@ history, exactly as `lanefinder image` does. The tracked video's two lines are t
 (frames where the video shows no lane are left out and counted). A still *agrees* when each
 of the video's lines is matched by one of the still's lines by TuSimple's rule (20 px / cos(angle)
 per row, 85% of the rows), over the TuSimple rows where the video has the line. The table gives
-per video: stills compared, stills with a lane, stills that agree, and the mean TuSimple accuracy.
+per video: stills compared, stills with a lane, stills that agree, and the mean TuSimple accuracy;
+the JSON report also lists every still (frame, time, and per set-up: lane, agreement, accuracy,
+the set-up used and the checks that fired).
 
 Each still is found twice: with the default set-up (`lanefinder image` with no config, as a
 user with an unknown camera would run it) and with the camera's own set-up (`lanefinder setup
@@ -48,13 +50,14 @@ def own_setup(src: Path, cfg: Config) -> Config:
     return cfg.model_copy(update={"camera": own.camera, "birdseye": own.birdseye})
 
 
-def _still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> tuple[bool, bool, float]:
-    """Find one still blind; whether it has a lane, whether it agrees, and its accuracy."""
+def _still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
+    """Find one still blind: whether it has a lane, whether it agrees, its accuracy, set-up and checks."""
     result = finder.process_still(image)
     row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])))
     lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
     acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])
-    return result.lane_found, result.lane_found and fn == 0, acc
+    return {"lane": result.lane_found, "agrees": result.lane_found and fn == 0, "accuracy": round(acc, 4),
+            "setup": result.setup, "checks": list(result.checks)}
 
 
 def compare(src: Path, every_s: float, cfg: Config) -> dict:
@@ -68,6 +71,7 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
     finders = {"default": LaneFinder(cfg), "own": LaneFinder(own_setup(src, cfg))}
     n = no_reference = 0
     counts = {k: {"with_lane": 0, "agree": 0, "acc": 0.0} for k in finders}
+    per_still: list[dict] = []
     for f in frames(src):
         if f.index % step != step // 2:
             continue
@@ -77,13 +81,15 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
             no_reference += 1
             continue
         n += 1
+        record: dict = {"frame": f.index, "time_s": round(f.index / fps, 2)}
         for name, finder in finders.items():
-            lane, agrees, acc = _still(finder, f.image, ref, ref_lanes)
+            s = record[name] = _still(finder, f.image, ref, ref_lanes)
             c = counts[name]
-            c["with_lane"] += lane
-            c["agree"] += agrees
-            c["acc"] += acc
-    out: dict = {"stills": n, "no_reference": no_reference}
+            c["with_lane"] += s["lane"]
+            c["agree"] += s["agrees"]
+            c["acc"] += s["accuracy"]
+        per_still.append(record)
+    out: dict = {"stills": n, "no_reference": no_reference, "per_still": per_still}
     for name, c in counts.items():
         out[name] = {"with_lane": c["with_lane"], "agree": c["agree"], "agree_share": c["agree"] / n if n else None,
                      "mean_accuracy": c["acc"] / n if n else None}

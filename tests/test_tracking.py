@@ -90,9 +90,20 @@ def test_one_line_lost_is_inferred_from_the_other_and_the_width(tracker):
 
 def test_nothing_for_long_says_lost(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    states = [tracker.update(None, None, blind=tracker.needs_blind_search).state for _ in range(20)]
+    states = [tracker.update(None, None, blind=tracker.needs_blind_search).state for _ in range(40)]
     assert states[-1] == LOST
-    assert LOST not in states[: tracker.cfg.lost_after]
+    # A straight lane is held for hold_gentle_frames (1 s at 25 fps), then lost.
+    hold = tracker.cfg.hold_gentle_frames
+    assert LOST not in states[:hold] and states[hold] == LOST
+
+
+def test_a_tight_bend_is_held_for_less_time(tracker):
+    bend = np.array([1 / (2 * 60.0), 0.0, 0.0])  # radius 60 m: its bend may change within a second
+    tracker.update(meas(LEFT + bend), meas(RIGHT + bend), blind=True)
+    states = [tracker.update(None, None, blind=tracker.needs_blind_search).state for _ in range(40)]
+    lost_after = tracker.cfg.lost_after
+    assert lost_after < tracker.cfg.hold_gentle_frames
+    assert LOST not in states[:lost_after] and states[lost_after] == LOST
 
 
 def test_implausible_pairs_are_rejected(tracker):
@@ -123,11 +134,11 @@ def test_a_lane_is_started_from_one_line_only_when_it_is_confident(tracker):
 def test_one_line_alone_holds_the_lane_only_so_long(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     n = tracker.cfg.max_one_line_frames
-    states = [tracker.update(meas(LEFT), None, blind=tracker.needs_blind_search) for _ in range(n + 20)]
+    states = [tracker.update(meas(LEFT), None, blind=tracker.needs_blind_search) for _ in range(n + 40)]
     assert all(s.left.found and s.right.inferred for s in states[:n])
     assert "one-line-too-long" in states[n].reasons
-    # Held for lost_after more frames, then "lost" (until a confident start).
-    assert states[n + tracker.cfg.lost_after].state == LOST
+    # Held for hold_gentle_frames more frames (a straight lane), then "lost" (until a confident start).
+    assert states[n + tracker.cfg.hold_gentle_frames].state == LOST
 
 
 def test_smoothing_damps_wobble_but_follows_a_bend(tracker):
@@ -152,7 +163,7 @@ def test_the_inferred_line_is_a_lane_width_away_across_a_slanted_lane(tracker):
 
 def _lose(tracker: Tracker) -> None:
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    for _ in range(tracker.cfg.lost_after + 1):
+    for _ in range(tracker.cfg.hold_gentle_frames + 1):
         t = tracker.update(None, None, blind=True)
     assert t.state == LOST and tracker.track.was_lost
 

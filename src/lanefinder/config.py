@@ -485,7 +485,10 @@ class TrackingConfig(_Section):
     max_misses : int
         Misses after which the next frame is searched blind.
     lost_after : int
-        Misses after which the lane is lost.
+        Misses after which the lane is lost ...
+    hold_gentle_frames, hold_gentle_radius_m : int, float
+        ... or after ``hold_gentle_frames`` when the lane curves no tighter than radius
+        ``hold_gentle_radius_m`` (metres; 0: never): see :func:`lanefinder.tracking.hold_frames`.
     max_one_line_frames : int
         Frames one line alone may hold the lane.
     min_start_confidence : float
@@ -530,6 +533,8 @@ class TrackingConfig(_Section):
     max_offset_m: PositiveFloat = 0.9
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
+    hold_gentle_frames: PositiveInt = 25
+    hold_gentle_radius_m: Annotated[float, Field(ge=0)] = 150.0
     max_one_line_frames: PositiveInt = 50
     min_start_confidence: Fraction = 0.45
     start_frames: PositiveInt = 3

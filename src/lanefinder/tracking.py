@@ -18,7 +18,8 @@ The rules, in the order :func:`step` applies them:
 5. The lane implied by what is left must hold the car (``offset``).
 6. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
    a rejected frame is a miss, and after ``max_misses`` the next frame is searched blind,
-   after ``lost_after`` the lane is lost.
+   after ``hold_gentle_frames`` the lane is lost (after ``lost_after`` in a tight bend: see
+   :func:`hold_frames`).
 """
 
 from __future__ import annotations
@@ -30,10 +31,10 @@ import numpy as np
 
 from .checks import check_confidence, check_jump, check_offset, check_one_line, lines_close, pair_problems
 from .config import TrackingConfig
-from .geometry import Scale, lane_width_m, m_to_px, poly_x
+from .geometry import Scale, curvature_per_m, lane_width_m, m_to_px, poly_x
 from .lane import LOST, REDETECT, SIDES, TRACKING, Line
 
-__all__ = ["Candidate", "Rules", "Track", "Verdict", "implied_lane", "step"]
+__all__ = ["Candidate", "Rules", "Track", "Verdict", "hold_frames", "implied_lane", "step"]
 
 Fit = np.ndarray
 Pair = tuple[Line | None, Line | None]
@@ -267,6 +268,41 @@ def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: 
     return out[0], out[1]
 
 
+def hold_frames(track: Track, cfg: TrackingConfig) -> int:
+    """Give how many frames in a row without a measurement the track's lane is held before it is lost.
+
+    A gentle lane (its curvature at the car no tighter than ``1 / hold_gentle_radius_m``) is
+    held for ``hold_gentle_frames``: across a long gap in worn or dashed paint the road ahead
+    changes little.  A tighter one, whose bend can change within a second (a hairpin), for
+    ``lost_after``.
+
+    Parameters
+    ----------
+    track : Track
+        The track (with a lane).
+    cfg : TrackingConfig
+        ``lost_after``, ``hold_gentle_frames``, ``hold_gentle_radius_m``.
+
+    Returns
+    -------
+    int
+        Frames.
+
+    Examples
+    --------
+    >>> from lanefinder.config import TrackingConfig
+    >>> straight = Track(fits_m=(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9])))
+    >>> hairpin = Track(fits_m=(np.array([0.02, 0.0, -1.8]), np.array([0.02, 0.0, 1.9])))
+    >>> cfg = TrackingConfig()
+    >>> hold_frames(straight, cfg) == cfg.hold_gentle_frames, hold_frames(hairpin, cfg) == cfg.lost_after
+    (True, True)
+    """
+    if not track.has_lane or cfg.hold_gentle_radius_m <= 0:
+        return cfg.lost_after
+    k = max(abs(curvature_per_m(f)) for f in track.fits_m)  # type: ignore[arg-type]
+    return max(cfg.lost_after, cfg.hold_gentle_frames) if k * cfg.hold_gentle_radius_m <= 1 else cfg.lost_after
+
+
 def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured: Pair, blind: bool,
           rules: Rules, keep_candidate: bool = False) -> tuple[Track, Verdict]:
     """Handle a frame whose measurements were not taken: hold the lane, or lose it."""
@@ -274,9 +310,9 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
     misses, since_both, cand = track.misses + 1, track.since_both + 1, track.candidate
     if not keep_candidate and cand is not None:
         cand = replace(cand, age=cand.age + 1) if cand.age < c.start_frames else None
-    if not track.has_lane or misses > c.lost_after:
+    if not track.has_lane or misses > hold_frames(track, c):
         had_lane = track.fits_m[0] is not None or track.was_lost
-        lost = Track(misses=c.lost_after + 1, candidate=cand, was_lost=had_lane)
+        lost = Track(misses=max(c.lost_after, c.hold_gentle_frames) + 1, candidate=cand, was_lost=had_lane)
         left, right = _lines((None, None), (False, False), conf, measured, rules, shown=False)
         return lost, Verdict(left, right, LOST, lost.misses, tuple(reasons))
     held = replace(track, misses=misses, since_both=since_both, candidate=cand)
