@@ -500,7 +500,7 @@ def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, s
     """
     h, w = pixels.shape
     rows = np.arange(h, dtype=np.float64)
-    xl, xr = np.polyval(m_to_px(left_m, scale), rows), np.polyval(m_to_px(right_m, scale), rows)
+    xl, xr = poly_x(m_to_px(left_m, scale), rows), poly_x(m_to_px(right_m, scale), rows)
     centre, quarter = (xl + xr) / 2, (xr - xl) / 4
     valid = (quarter > 0) & (centre - quarter >= 0) & (centre + quarter < w)
     if valid.sum() <= cfg.interior_min_rows:
@@ -512,11 +512,12 @@ def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, s
     inside = valid[ys] & (np.abs(s) < quarter[ys])
     strip = ((s[inside] + quarter[ys[inside]]) / strip_px).astype(np.intp)
     counts = np.bincount(ys[inside] * n_strips + strip, minlength=h * n_strips).reshape(h, n_strips)
-    present = counts[valid] >= cfg.interior_min_pixels
+    present = counts >= cfg.interior_min_pixels  # (rows that are not valid have no pixels counted)
     pair = present[:, :-1] | present[:, 1:] if n_strips > 1 else present
-    fill = pair.mean(axis=0)
+    fill = sorted((pair.sum(axis=0) / int(valid.sum())).tolist())
     # A marking stands out from the rest of the lane; dense clutter fills every strip alike.
-    best = float(fill.max())
-    if best > cfg.max_interior_fill and best - float(np.median(fill)) > cfg.interior_excess:
+    half = len(fill) // 2
+    median = fill[half] if len(fill) % 2 else 0.5 * (fill[half - 1] + fill[half])
+    if fill[-1] > cfg.max_interior_fill and fill[-1] - median > cfg.interior_excess:
         return "line-inside-lane"
     return None
