@@ -467,7 +467,12 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     width_m = track.width_m
     if both:
         w_meas = lane_width_m(*fits)
-        width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
+        if width_m is None and track.has_lane:
+            # The first pair on a lane started from one line (drawn at the default width so
+            # far): one measurement moves the width only part of the way from the default.
+            width_m = rules.default_width_m + c.first_width_gain * (w_meas - rules.default_width_m)
+        else:
+            width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
     track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m)
     if reason := check_offset(*fits, c, holding=not track.needs_blind_search(c)):
         # The lane these lines make would not hold the car: not this lane.
