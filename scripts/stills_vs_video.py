@@ -56,7 +56,7 @@ def _still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
     row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])))
     lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
     acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])
-    return {"lane": result.lane_found, "agrees": result.lane_found and fn == 0, "accuracy": round(acc, 4),
+    return {"lane": result.lane_found, "agrees": result.lane_found and fn == 0, "accuracy": acc,
             "setup": result.setup, "checks": list(result.checks)}
 
 
@@ -88,6 +88,7 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
             c["with_lane"] += s["lane"]
             c["agree"] += s["agrees"]
             c["acc"] += s["accuracy"]
+            s["accuracy"] = round(s["accuracy"], 4)
         per_still.append(record)
     out: dict = {"stills": n, "no_reference": no_reference, "per_still": per_still}
     for name, c in counts.items():

@@ -284,3 +284,14 @@ def test_a_band_needing_more_paint_than_it_holds_is_refused():
 
     with pytest.raises(ValueError, match="band_min_marking_m"):
         FitConfig(band_m=0.1, band_min_marking_m=0.13)
+
+
+def test_a_fit_of_coordinates_that_are_not_finite_is_a_clear_error():
+    from lanefinder.geometry import fit_line, fit_params
+
+    p = fit_params(FitConfig(), 3.7 / 150, 0.0985)
+    ys = np.repeat(np.arange(300.0), 6)
+    xs = np.full(ys.size, 125.0)
+    xs[10] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        fit_line(xs, ys, 300, p)

@@ -106,16 +106,6 @@ def test_a_tight_bend_is_held_for_less_time(tracker):
     assert LOST not in states[:lost_after] and states[lost_after] == LOST
 
 
-def test_the_first_pair_after_a_one_line_start_moves_the_width_only_partly(tracker):
-    tracker.update(meas(LEFT, 0.9), None, blind=True)  # started from one line, at the default width
-    assert tracker.track.width_m is None
-    # A weak right line on a seam ridge 2.6 m away: the width moves a share of the way, not all of it.
-    tracker.update(meas(LEFT, 0.9), meas(LEFT + np.array([0, 0, 2.6]), 0.35), blind=False)
-    default, gain = 3.7, tracker.cfg.first_width_gain
-    assert gain < 1
-    assert tracker.track.width_m == pytest.approx(default + gain * (2.6 - default), abs=0.01)
-
-
 def test_implausible_pairs_are_rejected(tracker):
     # Too narrow: 1.5 m.
     t = tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 1.5])), blind=True)

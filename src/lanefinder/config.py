@@ -487,8 +487,9 @@ class TrackingConfig(_Section):
     lost_after : int
         Misses after which the lane is lost ...
     hold_gentle_frames, hold_gentle_radius_m : int, float
-        ... or after ``hold_gentle_frames`` when the lane curves no tighter than radius
-        ``hold_gentle_radius_m`` (metres; 0: never): see :func:`lanefinder.tracking.hold_frames`.
+        ... or after ``hold_gentle_frames`` (at least ``lost_after``) when the lane curves no
+        tighter than radius ``hold_gentle_radius_m`` (metres; 0: never): see
+        :func:`lanefinder.tracking.hold_frames`.
     max_one_line_frames : int
         Frames one line alone may hold the lane.
     min_start_confidence : float
@@ -501,9 +502,6 @@ class TrackingConfig(_Section):
         The smoothing gain of the metre fits (see the comment in the source).
     width_smoothing : float
         Gain of the tracked lane width per frame.
-    first_width_gain : float
-        On a lane started from one line (shown at ``search.lane_width_m`` so far), the first
-        measured pair moves the width this share of the way from that default (1: all of it).
     rejected_pair_confidence : float
         Factor on both confidences of a pair that fails the lane checks.
     inferred_weight : float
@@ -559,7 +557,6 @@ class TrackingConfig(_Section):
     smoothing_fast_gain: Fraction = 0.3
     smoothing_min_gain: Fraction = 0.05
     width_smoothing: Fraction = 0.1
-    first_width_gain: Fraction = 0.3
     # A pair that fails the lane checks keeps one line, and both confidences are scaled by
     # ``rejected_pair_confidence``; an inferred line is smoothed with ``inferred_weight`` times
     # the confidence of the line it is drawn from.

@@ -278,7 +278,7 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     Parameters
     ----------
     x, y : ndarray
-        The line's pixels, bird's-eye.
+        The line's pixels, bird's-eye: columns, and rows (whole pixels, >= 0).
     height_px : int
         Height of the view, pixels.
     cfg : FitParams
@@ -289,6 +289,11 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     LineFit or None
         The fit with its confidence; None with fewer than ``min_pixels`` pixels.
 
+    Raises
+    ------
+    ValueError
+        When a coordinate is not finite.
+
     Examples
     --------
     >>> from lanefinder.config import FitConfig
@@ -298,6 +303,8 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     >>> fit.coeffs_px.round(3).tolist(), round(fit.confidence, 2)
     ([0.001, -0.6, 215.0], 0.82)
     """
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("fit_line needs finite pixel coordinates")
     return _fit_marking(*_marking(x, y, cfg), height_px, cfg)
 
 

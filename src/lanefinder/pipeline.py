@@ -26,7 +26,7 @@ from .measure import Measurer, measure
 from .search import Pixels
 from .selfcal import SelfCalibrator, still_setup
 from .selfcal import wanted as selfcal_wanted
-from .threshold import threshold
+from .threshold import rowwise, threshold
 from .tracking import Track, Verdict, step
 
 __all__ = ["LaneFinder", "LaneResult", "birdseye_from_config", "camera_from_config"]
@@ -350,7 +350,7 @@ class LaneFinder:
         centres = [poly_x(getattr(result, side).fit_px, fv.v_px) - fv.u0_px for side in sides]
         strips, col0 = fv.strip(frame, np.array(centres), half)
         k, tcfg = len(fv.v_px), self._far_threshold()
-        if tcfg.strategy == "ridge" and tcfg.ridge.noise_factor == 0:  # row by row: one call for the strips
+        if rowwise(tcfg):  # one call for the strips
             far_binary = threshold(strips, tcfg, be.xm_per_px)
         else:  # a filter across rows would mix the strips at their seam
             far_binary = np.vstack([threshold(strips[i:i + k], tcfg, be.xm_per_px) for i in range(0, len(strips), k)])

@@ -14,7 +14,7 @@ import numpy as np
 
 from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
 
-__all__ = ["STRATEGIES", "color", "ridge", "sobel_hls", "threshold", "ycrcb"]
+__all__ = ["STRATEGIES", "color", "ridge", "rowwise", "sobel_hls", "threshold", "ycrcb"]
 
 # The ridge window is at least this wide (pixels): narrower cannot hold a road level either side.
 _MIN_RIDGE_WINDOW_PX = 3
@@ -197,6 +197,31 @@ STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = 
     "color": (color, "color"),
     "ycrcb": (ycrcb, "ycrcb"),
 }
+
+
+def rowwise(cfg: ThresholdConfig) -> bool:
+    """Tell whether a threshold decides each row from that row alone.
+
+    Images stacked one below the other may then be thresholded in one call: ``ridge`` without
+    its texture test works along rows only; the other strategies filter across rows.
+
+    Parameters
+    ----------
+    cfg : ThresholdConfig
+        The settings.
+
+    Returns
+    -------
+    bool
+        True for ``ridge`` with ``noise_factor`` 0.
+
+    Examples
+    --------
+    >>> from lanefinder.config import ThresholdConfig
+    >>> rowwise(ThresholdConfig()), rowwise(ThresholdConfig.model_validate({"ridge": {"noise_factor": 0}}))
+    (False, True)
+    """
+    return cfg.strategy == "ridge" and cfg.ridge.noise_factor == 0
 
 
 def threshold(image: np.ndarray, cfg: ThresholdConfig, xm_per_px: float) -> np.ndarray:

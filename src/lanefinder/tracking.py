@@ -272,9 +272,9 @@ def hold_frames(track: Track, cfg: TrackingConfig) -> int:
     """Give how many frames in a row without a measurement the track's lane is held before it is lost.
 
     A gentle lane (its curvature at the car no tighter than ``1 / hold_gentle_radius_m``) is
-    held for ``hold_gentle_frames``: across a long gap in worn or dashed paint the road ahead
-    changes little.  A tighter one, whose bend can change within a second (a hairpin), for
-    ``lost_after``.
+    held for ``hold_gentle_frames`` (at least ``lost_after``): across a long gap in worn or dashed
+    paint the road ahead changes little.  A tighter one, whose bend can change within a second
+    (a hairpin), for ``lost_after``.  (A lost track's ``misses`` stays ``lost_after + 1``.)
 
     Parameters
     ----------
@@ -312,7 +312,7 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
         cand = replace(cand, age=cand.age + 1) if cand.age < c.start_frames else None
     if not track.has_lane or misses > hold_frames(track, c):
         had_lane = track.fits_m[0] is not None or track.was_lost
-        lost = Track(misses=max(c.lost_after, c.hold_gentle_frames) + 1, candidate=cand, was_lost=had_lane)
+        lost = Track(misses=c.lost_after + 1, candidate=cand, was_lost=had_lane)
         left, right = _lines((None, None), (False, False), conf, measured, rules, shown=False)
         return lost, Verdict(left, right, LOST, lost.misses, tuple(reasons))
     held = replace(track, misses=misses, since_both=since_both, candidate=cand)
@@ -467,12 +467,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     width_m = track.width_m
     if both:
         w_meas = lane_width_m(*fits)
-        if width_m is None and track.has_lane:
-            # The first pair on a lane started from one line (drawn at the default width so
-            # far): one measurement moves the width only part of the way from the default.
-            width_m = rules.default_width_m + c.first_width_gain * (w_meas - rules.default_width_m)
-        else:
-            width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
+        width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
     track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m)
     if reason := check_offset(*fits, c, holding=not track.needs_blind_search(c)):
         # The lane these lines make would not hold the car: not this lane.
