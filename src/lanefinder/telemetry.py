@@ -97,6 +97,10 @@ def h_samples(frame_height: int) -> list[int]:
     return [round(r * frame_height / 720) for r in range(400, 720, 10)]
 
 
+#: The far part of a line is sampled at 120 geometric steps (as exponents of the ratio).
+_FAR_STEPS = np.linspace(0.0, 1.0, 120)
+
+
 def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int], far_fit_px: np.ndarray | None = None,
                    far_end_px: float = math.nan) -> list[float]:
     """Map a bird's-eye line fit onto the original frame and sample its x at given rows.
@@ -130,34 +134,64 @@ def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int], far
     >>> line_x_at_rows(np.array([0.0, 0.0, 125.0]), be, [460, 700])
     [581.3, 244.7]
     """
-    if fit_px is None:
-        return [-2.0] * len(rows)
+    return _x_at_rows([(fit_px, far_fit_px, far_end_px)], be, rows)[0]
+
+
+def _x_at_rows(lines: list[tuple[np.ndarray | None, np.ndarray | None, float]], be: BirdsEye,
+               rows: list[int]) -> list[list[float]]:
+    """:func:`line_x_at_rows` for several lines (fit, far fit, far end), their points mapped together."""
+    absent = [-2.0] * len(rows)
     h = be.size[1]
     w_f, h_f = be.frame_size
-    y = np.linspace(0, 2.0 * h, 160)
-    x = poly_x(fit_px, y)
-    if far_fit_px is not None and far_end_px < 0:
-        # The far part: dense in the frame's rows (they are far apart on the road there).
-        y_far = -np.geomspace(-far_end_px, 0.5, 120)
-        y, x = np.concatenate([y_far, y]), np.concatenate([poly_x(far_fit_px, y_far), x])
-    und = be.to_undistorted(np.column_stack([x, y]))
-    # Only where the undistorted point is (nearly) in view: the lens polynomial is not
-    # monotonic far outside the calibrated field, and the road behind the camera is not seen.
-    ok = (und[:, 0] > -0.1 * w_f) & (und[:, 0] < 1.1 * w_f) & (und[:, 1] > -0.1 * h_f) & (und[:, 1] < 1.1 * h_f)
-    ok &= np.logical_and.accumulate(np.concatenate([[True], np.diff(und[:, 1]) > 0]))
-    if ok.sum() < 2:
-        return [-2.0] * len(rows)
-    pts = be.to_frame(np.column_stack([x[ok], y[ok]]))
-    fy, fx = pts[:, 1], pts[:, 0]
-    keep = np.logical_and.accumulate(np.concatenate([[True], np.diff(fy) > 0]))
-    fy, fx = fy[keep], fx[keep]
-    w = be.frame_size[0]
-    if fy.size < 2:
-        return [-2.0] * len(rows)
+    parts: list[tuple[np.ndarray, np.ndarray] | None] = []
+    for fit_px, far_fit_px, far_end_px in lines:
+        if fit_px is None:
+            parts.append(None)
+            continue
+        y = np.linspace(0, 2.0 * h, 160)
+        x = poly_x(fit_px, y)
+        if far_fit_px is not None and far_end_px < 0:
+            # The far part: dense in the frame's rows (they are far apart on the road there).
+            y_far = far_end_px * np.exp(_FAR_STEPS * math.log(0.5 / -far_end_px))  # geometric, to -0.5
+            y, x = np.concatenate([y_far, y]), np.concatenate([poly_x(far_fit_px, y_far), x])
+        parts.append((x, y))
+    given = [p for p in parts if p is not None]
+    if not given:
+        return [absent for _ in lines]
+    # Every point is mapped in one call each way (the maps work point by point).
+    und_all = be.to_undistorted(np.vstack([np.column_stack(p) for p in given]))
+    kept: list[tuple[np.ndarray, np.ndarray] | None] = []
+    start = 0
+    for x, y in given:
+        und = und_all[start:start + len(x)]
+        start += len(x)
+        # Only where the undistorted point is (nearly) in view: the lens polynomial is not
+        # monotonic far outside the calibrated field, and the road behind the camera is not seen.
+        ok = (und[:, 0] > -0.1 * w_f) & (und[:, 0] < 1.1 * w_f) & (und[:, 1] > -0.1 * h_f) & (und[:, 1] < 1.1 * h_f)
+        ok &= np.logical_and.accumulate(np.concatenate([[True], np.diff(und[:, 1]) > 0]))
+        kept.append((x[ok], y[ok]) if ok.sum() >= 2 else None)
+    mapped = [k for k in kept if k is not None]
+    frame_all = be.to_frame(np.vstack([np.column_stack(k) for k in mapped])) if mapped else np.empty((0, 2))
     r = np.asarray(rows, np.float64)
-    xv = np.interp(r, fy, fx)
-    ok = (r >= fy[0]) & (r <= fy[-1]) & (xv >= 0) & (xv < w)
-    return [round(float(x), 1) if k else -2.0 for x, k in zip(xv.tolist(), ok.tolist(), strict=True)]
+    out_given = []
+    start = 0
+    for k in kept:
+        if k is None:
+            out_given.append(absent)
+            continue
+        pts = frame_all[start:start + len(k[0])]
+        start += len(k[0])
+        fy, fx = pts[:, 1], pts[:, 0]
+        keep = np.logical_and.accumulate(np.concatenate([[True], np.diff(fy) > 0]))
+        fy, fx = fy[keep], fx[keep]
+        if fy.size < 2:
+            out_given.append(absent)
+            continue
+        xv = np.interp(r, fy, fx)
+        ok = (r >= fy[0]) & (r <= fy[-1]) & (xv >= 0) & (xv < w_f)
+        out_given.append([round(float(v), 1) if g else -2.0 for v, g in zip(xv.tolist(), ok.tolist(), strict=True)])
+    it = iter(out_given)
+    return [absent if p is None else next(it) for p in parts]
 
 
 def _num(v: float | None, nd: int = 6) -> float | None:
@@ -170,9 +204,8 @@ def _coeffs(c: np.ndarray | None) -> list[float] | None:
     return None if c is None else [float(f"{v:.8g}") for v in c]
 
 
-def _line_fields(line: Line, be: BirdsEye, rows: list[int], decay_m: float) -> dict[str, Any]:
-    """One line's telemetry values, keyed by :data:`LINE_FIELDS`."""
-    xs = line_x_at_rows(line.fit_px, be, rows, line.far_fit_px, line.far_end_px)
+def _line_fields(line: Line, be: BirdsEye, rows: list[int], decay_m: float, xs: list[float]) -> dict[str, Any]:
+    """One line's telemetry values, keyed by :data:`LINE_FIELDS` (``xs``: its x at the rows)."""
     return {"found": line.found, "inferred": line.inferred, "conf": round(line.confidence, 4),
             "fit_m": _coeffs(line.fit_m), "fit_px": _coeffs(line.fit_px),
             "x": xs, "range_m": _num(line.range_m, 2), "x_conf": _row_confidences(line, be, rows, xs, decay_m)}
@@ -180,14 +213,16 @@ def _line_fields(line: Line, be: BirdsEye, rows: list[int], decay_m: float) -> d
 
 def _row_confidences(line: Line, be: BirdsEye, rows: list[int], xs: list[float], decay_m: float) -> list[float]:
     """Give the line's confidence at each row: as measured in the view, falling beyond; 0 where absent."""
-    pts = np.array([[x, r] for x, r in zip(xs, rows, strict=True) if x >= 0], np.float64)
-    if not len(pts) or line.confidence <= 0:
+    x = np.asarray(xs, np.float64)
+    seen = x >= 0
+    if not seen.any() or line.confidence <= 0:
         return [0.0] * len(rows)
     h = be.size[1]
-    d = (h - be.from_frame(pts)[:, 1]) * be.ym_per_px
+    d = (h - be.from_frame(np.column_stack([x[seen], np.asarray(rows, np.float64)[seen]]))[:, 1]) * be.ym_per_px
     it = iter(d.tolist())
-    return [round(row_confidence(line.confidence, next(it), h * be.ym_per_px, decay_m), 3) if x >= 0 else 0.0
-            for x in xs]
+    top_m = h * be.ym_per_px
+    return [round(row_confidence(line.confidence, next(it), top_m, decay_m), 3) if k else 0.0
+            for k in seen.tolist()]
 
 
 def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M) -> dict[str, Any]:
@@ -223,7 +258,9 @@ def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M) -> 
     ('re-detect', True, [400, 410, 420], 32)
     """
     rows = h_samples(be.frame_size[1])
-    per_line = {side: _line_fields(line, be, rows, decay_m) for side, line in zip(SIDES, r.lines, strict=True)}
+    xs = _x_at_rows([(line.fit_px, line.far_fit_px, line.far_end_px) for line in r.lines], be, rows)
+    per_line = {side: _line_fields(line, be, rows, decay_m, x)
+                for side, line, x in zip(SIDES, r.lines, xs, strict=True)}
     out: dict[str, Any] = {"state": r.state}
     for key in FIELDS[3:]:
         side, _, name = key.partition("_")
