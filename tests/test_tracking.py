@@ -220,3 +220,20 @@ def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(trac
     # A confident line alone does re-place the lane.
     t = tracker.update(meas(far, conf=0.9), None, blind=True)
     assert t.left.found and t.left.fit_m[2] == pytest.approx(far[2])
+
+
+def test_counts_and_gains_follow_the_frame_rate():
+    from lanefinder.config import TrackingConfig
+    from lanefinder.tracking import at_fps
+
+    cfg = TrackingConfig()
+    assert at_fps(cfg, 25.0) is cfg and at_fps(cfg, 25.4) is cfg  # the reference rate, or within 2%
+    assert at_fps(cfg, float("nan")) is cfg and at_fps(cfg, 0.0) is cfg
+    fast = at_fps(cfg, 50.0)
+    assert (fast.lost_after, fast.hold_gentle_frames, fast.max_misses) == (24, 50, 10)
+    # A per-frame gain at 50 fps compounds over two frames to the gain of one frame at 25 fps.
+    assert 1 - (1 - fast.width_smoothing) ** 2 == pytest.approx(cfg.width_smoothing)
+    assert fast.smoothing**2 == pytest.approx(cfg.smoothing)
+    assert at_fps(fast, 50.0) is fast  # its reference is now 50 fps: not scaled twice
+    slow = at_fps(cfg, 12.5)
+    assert (slow.lost_after, slow.start_frames) == (6, 2)

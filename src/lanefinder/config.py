@@ -486,6 +486,11 @@ class TrackingConfig(_Section):
         Misses after which the next frame is searched blind.
     lost_after : int
         Misses after which the lane is lost ...
+    reference_fps : float
+        The frame rate the counts (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
+        ``max_one_line_frames``, ``start_frames``) and per-frame gains (``smoothing``,
+        ``smoothing_fast_gain``, ``smoothing_min_gain``, ``width_smoothing``) are set for; a video
+        at another rate gets them scaled to the same times (:func:`lanefinder.tracking.at_fps`).
     hold_gentle_frames, hold_gentle_radius_m : int, float
         ... or after ``hold_gentle_frames`` (at least ``lost_after``) when the lane curves no
         tighter than radius ``hold_gentle_radius_m`` (metres; 0: never): see
@@ -535,6 +540,7 @@ class TrackingConfig(_Section):
     max_misses: PositiveInt = 5
     lost_after: PositiveInt = 12
     hold_gentle_frames: PositiveInt = 25
+    reference_fps: PositiveFloat = 25.0
     hold_gentle_radius_m: Annotated[float, Field(ge=0)] = 150.0
     max_one_line_frames: PositiveInt = 50
     min_start_confidence: Fraction = 0.45

@@ -34,7 +34,7 @@ from .config import TrackingConfig
 from .geometry import Scale, curvature_per_m, lane_width_m, m_to_px, poly_x
 from .lane import LOST, REDETECT, SIDES, TRACKING, Line
 
-__all__ = ["Candidate", "Rules", "Track", "Verdict", "hold_frames", "implied_lane", "step"]
+__all__ = ["Candidate", "Rules", "Track", "Verdict", "at_fps", "hold_frames", "implied_lane", "step"]
 
 Fit = np.ndarray
 Pair = tuple[Line | None, Line | None]
@@ -266,6 +266,54 @@ def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: 
             confidence=c, found=ok, inferred=shown and not ok, n_pixels=m.n_pixels if m is not None else 0,
             range_m=m.range_m if ok and m is not None else math.nan))
     return out[0], out[1]
+
+
+def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
+    """Give the tracking settings for a video at ``fps``: the same times as at ``cfg.reference_fps``.
+
+    Counts of frames (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
+    ``max_one_line_frames``, ``start_frames``) scale with the frame rate; a per-frame smoothing
+    gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
+    ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
+    same seconds.  Rates within 2% of the reference (and unknown ones) keep the settings as they are.
+
+    Parameters
+    ----------
+    cfg : TrackingConfig
+        The settings, for ``cfg.reference_fps``.
+    fps : float
+        The video's frame rate.
+
+    Returns
+    -------
+    TrackingConfig
+        The settings for ``fps``.
+
+    Examples
+    --------
+    >>> from lanefinder.config import TrackingConfig
+    >>> cfg = at_fps(TrackingConfig(), 50.0)
+    >>> cfg.hold_gentle_frames, cfg.lost_after, round(cfg.smoothing, 3)
+    (50, 24, 0.707)
+    """
+    if not (math.isfinite(fps) and fps > 0):
+        return cfg
+    ratio = fps / cfg.reference_fps
+    if abs(ratio - 1) <= 0.02:
+        return cfg
+
+    def count(n: int) -> int:
+        return max(1, round(n * ratio))
+
+    def gain(g: float) -> float:
+        return 1 - (1 - g) ** (1 / ratio)
+
+    return cfg.model_copy(update={
+        "max_misses": count(cfg.max_misses), "lost_after": count(cfg.lost_after),
+        "hold_gentle_frames": count(cfg.hold_gentle_frames), "max_one_line_frames": count(cfg.max_one_line_frames),
+        "start_frames": count(cfg.start_frames), "smoothing": cfg.smoothing ** (1 / ratio),
+        "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
+        "width_smoothing": gain(cfg.width_smoothing), "reference_fps": fps})
 
 
 def hold_frames(track: Track, cfg: TrackingConfig) -> int:

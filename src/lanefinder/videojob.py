@@ -32,6 +32,7 @@ from .render import annotate, contact_sheet, draw_debug
 from .selfcal import SetupState
 from .selfcal import wanted as selfcal_wanted
 from .telemetry import TELEMETRY_SUFFIXES, TelemetryWriter, make_row
+from .tracking import at_fps
 from .video import DecodeStats, Frame, VideoInfo, VideoSink, frames
 
 __all__ = ["RunCounts", "VideoSummary", "process_video"]
@@ -462,7 +463,9 @@ def process_video(
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
-    finder = LaneFinder(cfg, keep_debug=debug, self_calibrate=selfcal_wanted(cfg))
+    # Tracking's frame counts and gains, set for tracking.reference_fps, are scaled to this video's rate.
+    finder = LaneFinder(cfg.model_copy(update={"tracking": at_fps(cfg.tracking, float(info.fps))}),
+                        keep_debug=debug, self_calibrate=selfcal_wanted(cfg))
     be = finder.birdseye(info.size)  # fails early on a size the camera cannot serve
     check_memory(cfg, info.size, frames_held=4 * _QUEUE_FRAMES)
     expected = _expected_frames(info, start_s, end_s, max_frames)
