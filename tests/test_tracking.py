@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 
@@ -237,3 +239,7 @@ def test_counts_and_gains_follow_the_frame_rate():
     assert at_fps(fast, 50.0) is fast  # its reference is now 50 fps: not scaled twice
     slow = at_fps(cfg, 12.5)
     assert (slow.lost_after, slow.start_frames) == (6, 2)
+    # At 10 fps a lone line still needs two sightings to start a lane after a lost one.
+    assert at_fps(cfg, 10.0).start_frames == 2
+    assert at_fps(cfg, 1000.0) is cfg and at_fps(cfg, 1.0) is cfg  # misreported rates: not scaled
+    assert isinstance(at_fps(cfg, Fraction(30000, 1001)).reference_fps, float)

@@ -268,6 +268,10 @@ def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: 
     return out[0], out[1]
 
 
+#: Frame rates outside this range are taken as misreported: tracking is not scaled to them.
+_MIN_FPS, _MAX_FPS = 5.0, 240.0
+
+
 def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     """Give the tracking settings for a video at ``fps``: the same times as at ``cfg.reference_fps``.
 
@@ -275,7 +279,9 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     ``max_one_line_frames``, ``start_frames``) scale with the frame rate; a per-frame smoothing
     gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
     ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
-    same seconds.  Rates within 2% of the reference (and unknown ones) keep the settings as they are.
+    same seconds; a lone line still needs at least two sightings to start a lane after a lost one
+    when it needed two or more.  Rates within 2% of the reference, and rates that are unknown or
+    outside 5-240 fps (misreported), keep the settings as they are.
 
     Parameters
     ----------
@@ -296,7 +302,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     >>> cfg.hold_gentle_frames, cfg.lost_after, round(cfg.smoothing, 3)
     (50, 24, 0.707)
     """
-    if not (math.isfinite(fps) and fps > 0):
+    fps = float(fps)
+    if not (math.isfinite(fps) and _MIN_FPS <= fps <= _MAX_FPS):
         return cfg
     ratio = fps / cfg.reference_fps
     if abs(ratio - 1) <= 0.02:
@@ -311,7 +318,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     return cfg.model_copy(update={
         "max_misses": count(cfg.max_misses), "lost_after": count(cfg.lost_after),
         "hold_gentle_frames": count(cfg.hold_gentle_frames), "max_one_line_frames": count(cfg.max_one_line_frames),
-        "start_frames": count(cfg.start_frames), "smoothing": cfg.smoothing ** (1 / ratio),
+        "start_frames": max(min(2, cfg.start_frames), count(cfg.start_frames)),
+        "smoothing": cfg.smoothing ** (1 / ratio),
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
         "width_smoothing": gain(cfg.width_smoothing), "reference_fps": fps})
 
