@@ -11,6 +11,7 @@ Lines are metre fits x = A*d^2 + B*d + C (see docs/conventions.md).
 from __future__ import annotations
 
 import math
+import statistics
 
 import numpy as np
 
@@ -514,10 +515,9 @@ def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, s
     counts = np.bincount(ys[inside] * n_strips + strip, minlength=h * n_strips).reshape(h, n_strips)
     present = counts >= cfg.interior_min_pixels  # (rows that are not valid have no pixels counted)
     pair = present[:, :-1] | present[:, 1:] if n_strips > 1 else present
-    fill = sorted((pair.sum(axis=0) / int(valid.sum())).tolist())
+    fill = (pair.sum(axis=0) / int(valid.sum())).tolist()
     # A marking stands out from the rest of the lane; dense clutter fills every strip alike.
-    half = len(fill) // 2
-    median = fill[half] if len(fill) % 2 else 0.5 * (fill[half - 1] + fill[half])
-    if fill[-1] > cfg.max_interior_fill and fill[-1] - median > cfg.interior_excess:
+    best = max(fill)
+    if best > cfg.max_interior_fill and best - statistics.median(fill) > cfg.interior_excess:
         return "line-inside-lane"
     return None

@@ -18,6 +18,7 @@ marking found.  The near fit, and so the lane numbers at the car, are not change
 from __future__ import annotations
 
 import math
+import statistics
 from dataclasses import dataclass
 
 import cv2
@@ -27,7 +28,7 @@ from .birdseye import BirdsEye
 from .config import FarConfig
 from .geometry import poly_x
 
-__all__ = ["FarLine", "FarView", "follow_line", "make_farview", "row_confidence"]
+__all__ = ["FarLine", "FarView", "far_rows", "follow_line", "make_farview", "row_confidence"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -353,11 +354,35 @@ def _fit_correction(s: list[float], r: list[float]) -> tuple[float, float]:
         else:
             c1, c2 = b1 / a11, 0.0
         res = [abs(c1 * si + c2 * si * si - ri) for si, ri in zip(s, r, strict=True)]
-        kept = sorted(res[i] for i in keep)
-        half = len(kept) // 2
-        median = kept[half] if len(kept) % 2 else 0.5 * (kept[half - 1] + kept[half])
-        keep = [i for i, e in enumerate(res) if e <= 3 * (median + 0.5)]
+        limit = 3 * (statistics.median(res[i] for i in keep) + 0.5)
+        keep = [i for i, e in enumerate(res) if e <= limit]
     return c1, c2
+
+
+def far_rows(end_px: float, n: int) -> np.ndarray:
+    """Give bird's-eye rows along a line's far part: from its end to half a pixel beyond the top edge.
+
+    The steps are geometric, so they are dense far ahead, where the frame's rows are far apart
+    on the road.
+
+    Parameters
+    ----------
+    end_px : float
+        Bird's-eye y of the far part's end (negative: beyond the view's top edge).
+    n : int
+        Rows.
+
+    Returns
+    -------
+    (n,) ndarray
+        Bird's-eye y, from ``end_px`` to -0.5.
+
+    Examples
+    --------
+    >>> far_rows(-50.0, 3).round(2).tolist()
+    [-50.0, -5.0, -0.5]
+    """
+    return end_px * np.exp(np.linspace(0.0, 1.0, n) * math.log(0.5 / -end_px))
 
 
 def row_confidence(confidence: float, d_m: float, d_top_m: float, decay_m: float) -> float:

@@ -6,7 +6,6 @@ Annotators are plain functions that draw onto a frame and return it; they compos
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import cv2
@@ -15,6 +14,7 @@ import numpy as np
 from .birdseye import BirdsEye
 from .config import RenderConfig
 from .errors import LaneFinderError
+from .farfield import far_rows
 from .geometry import poly_x
 from .lane import LaneResult, Line
 from .search import SearchResult
@@ -86,8 +86,7 @@ def _far_points(line: Line, n: int) -> np.ndarray | None:
     """Give a line's far part as bird's-eye points, denser towards the far end; None without one."""
     if line.far_fit_px is None or not line.far_end_px < 0:
         return None
-    start = -line.far_end_px  # geometric steps from there to half a pixel beyond the top edge
-    y = -start * np.exp(np.linspace(0.0, 1.0, n) * math.log(0.5 / start))
+    y = far_rows(line.far_end_px, n)
     return np.column_stack([poly_x(line.far_fit_px, y), y])
 
 

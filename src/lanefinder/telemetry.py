@@ -32,7 +32,7 @@ import numpy as np
 from .birdseye import BirdsEye, setup_of
 from .config import FarConfig
 from .errors import LaneFinderError
-from .farfield import row_confidence
+from .farfield import far_rows, row_confidence
 from .geometry import poly_x
 from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
@@ -97,10 +97,6 @@ def h_samples(frame_height: int) -> list[int]:
     return [round(r * frame_height / 720) for r in range(400, 720, 10)]
 
 
-#: The far part of a line is sampled at 120 geometric steps (as exponents of the ratio).
-_FAR_STEPS = np.linspace(0.0, 1.0, 120)
-
-
 def line_x_at_rows(fit_px: np.ndarray | None, be: BirdsEye, rows: list[int], far_fit_px: np.ndarray | None = None,
                    far_end_px: float = math.nan) -> list[float]:
     """Map a bird's-eye line fit onto the original frame and sample its x at given rows.
@@ -151,8 +147,7 @@ def _x_at_rows(lines: list[tuple[np.ndarray | None, np.ndarray | None, float]], 
         y = np.linspace(0, 2.0 * h, 160)
         x = poly_x(fit_px, y)
         if far_fit_px is not None and far_end_px < 0:
-            # The far part: dense in the frame's rows (they are far apart on the road there).
-            y_far = far_end_px * np.exp(_FAR_STEPS * math.log(0.5 / -far_end_px))  # geometric, to -0.5
+            y_far = far_rows(far_end_px, 120)  # dense in the frame's rows, far apart on the road there
             y, x = np.concatenate([y_far, y]), np.concatenate([poly_x(far_fit_px, y_far), x])
         parts.append((x, y))
     given = [p for p in parts if p is not None]
@@ -161,10 +156,7 @@ def _x_at_rows(lines: list[tuple[np.ndarray | None, np.ndarray | None, float]], 
     # Every point is mapped in one call each way (the maps work point by point).
     und_all = be.to_undistorted(np.vstack([np.column_stack(p) for p in given]))
     kept: list[tuple[np.ndarray, np.ndarray] | None] = []
-    start = 0
-    for x, y in given:
-        und = und_all[start:start + len(x)]
-        start += len(x)
+    for (x, y), und in zip(given, np.split(und_all, np.cumsum([len(p[0]) for p in given])[:-1]), strict=True):
         # Only where the undistorted point is (nearly) in view: the lens polynomial is not
         # monotonic far outside the calibrated field, and the road behind the camera is not seen.
         ok = (und[:, 0] > -0.1 * w_f) & (und[:, 0] < 1.1 * w_f) & (und[:, 1] > -0.1 * h_f) & (und[:, 1] < 1.1 * h_f)
@@ -172,15 +164,14 @@ def _x_at_rows(lines: list[tuple[np.ndarray | None, np.ndarray | None, float]], 
         kept.append((x[ok], y[ok]) if ok.sum() >= 2 else None)
     mapped = [k for k in kept if k is not None]
     frame_all = be.to_frame(np.vstack([np.column_stack(k) for k in mapped])) if mapped else np.empty((0, 2))
+    in_frame = iter(np.split(frame_all, np.cumsum([len(k[0]) for k in mapped])[:-1]) if mapped else [])
     r = np.asarray(rows, np.float64)
     out_given = []
-    start = 0
     for k in kept:
         if k is None:
             out_given.append(absent)
             continue
-        pts = frame_all[start:start + len(k[0])]
-        start += len(k[0])
+        pts = next(in_frame)
         fy, fx = pts[:, 1], pts[:, 0]
         keep = np.logical_and.accumulate(np.concatenate([[True], np.diff(fy) > 0]))
         fy, fx = fy[keep], fx[keep]
