@@ -1,6 +1,7 @@
 """Single stills against the tracked video: does `lanefinder image` (blind, no history) agree? (`make stills`)
 
     python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--json output/stills/report.json]
+                                      [--config FILE]
 
 For each of the three Udacity videos: the video is run once with tracking (telemetry only);
 then one frame a second (at 0.5 s, 1.5 s, ...) is found again as a still, blind, with no
@@ -31,7 +32,8 @@ from pathlib import Path
 
 from lanefinder.autosetup import SetupOptions, auto_setup, straight_frames_from_video
 from lanefinder.camera import udacity_camera
-from lanefinder.config import Config
+from lanefinder.config import Config, load_config
+from lanefinder.errors import LaneFinderError
 from lanefinder.evaluate import bench_frame
 from lanefinder.pipeline import LaneFinder
 from lanefinder.telemetry import lane_row, read_telemetry
@@ -102,8 +104,13 @@ def main() -> int:
     ap.add_argument("--videos", type=Path, default=ROOT.parent / "shared" / "data" / "udacity" / "videos")
     ap.add_argument("--every-s", type=float, default=1.0)
     ap.add_argument("--json", type=Path, default=ROOT / "output" / "stills" / "report.json")
+    ap.add_argument("--config", type=Path, default=None, help="a config file for both the video and the stills")
     a = ap.parse_args()
-    cfg = Config()
+    try:
+        cfg = load_config(a.config)
+    except LaneFinderError as e:
+        print(f"stills_vs_video: error: {e}", file=sys.stderr)
+        return 2
     report = {}
     print(f"{'video':<24} {'stills':>6} {'set-up':>8} {'lane':>6} {'agree':>6} {'agree %':>8} {'target':>7} "
           f"{'mean acc':>9}")
