@@ -295,3 +295,18 @@ def test_a_fit_of_coordinates_that_are_not_finite_is_a_clear_error():
     xs[10] = np.nan
     with pytest.raises(ValueError, match="finite"):
         fit_line(xs, ys, 300, p)
+
+
+def test_inner_preference_takes_the_line_before_a_stronger_rail_beyond_it():
+    from lanefinder.config import SearchConfig
+    from lanefinder.search import find_bases, histogram, search_params
+
+    b = np.zeros((300, 400), np.uint8)
+    b[:, 122:128] = 1  # the left line
+    b[:, 273:277] = 1  # the faint edge line: a 3.7 m lane
+    b[:, 300:312] = 1  # a bright rail 0.8 m beyond it: a 4.5 m "lane", within the width tolerance
+    hist = histogram(b, 0.5)
+    plain = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    inner = search_params(SearchConfig(inner_preference=0.5), 3.7 / 150, 0.0985)
+    assert find_bases(hist, 200.0, plain) == (126.0, 307.0)
+    assert find_bases(hist, 200.0, inner) == (126.0, 277.0)

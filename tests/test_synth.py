@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, replace
 
 import cv2
@@ -212,3 +213,43 @@ def test_paint_washed_out_by_glare_is_not_labelled(camera):
     assert 0 < seen(tg) < seen(tc)  # the glare ahead hides the far paint; what is left is labelled
     far_row, far_x = next((h, x) for h, x in zip(tg.h_samples, tg.left_x, strict=True) if x >= 0)
     assert not r.washed_out(0.0, np.array([far_x]), np.array([far_row], float), look.yellow).any()
+
+
+def test_on_a_level_road_the_rays_meet_it_where_the_flat_model_says(camera):
+    r = Renderer(camera, Mount(), SCENARIOS["straight"])
+    rays = np.array([[0.1, -0.2, 0.0], [0.05, 0.01, -0.02], [1.0, 1.0, 1.0]])  # x, y, z rows: three rays
+    t = r.meet_road(r.geometry(0.0), rays)
+    assert t[:2] == pytest.approx(Mount().height_m / rays[1, :2])
+    assert np.isnan(t[2])  # a ray at the horizon never meets a level road (nor beyond HILL_VIEW_M)
+
+
+def _hill_truth(camera, crest: bool):
+    """A frame of the hills scenario at its crest or its sag, with the level-road truth of the same lane."""
+    hills = SCENARIOS["hills"]
+    r = Renderer(camera, Mount(), hills, supersample=1)
+    # vertical curvature amp * sin(2 pi t / period + 2.7): +amp (crest) and -amp (sag) at these times
+    t = (math.pi / 2 + (0 if crest else math.pi) - 2.7) % (2 * math.pi) * hills.period_s / (2 * math.pi)
+    g = r.geometry(t)
+    assert abs(g["vertical_curvature"]) == pytest.approx(hills.vertical_curvature[1], rel=1e-6)
+    level = {**g, "vertical_curvature": 0.0}
+    return r, t, g, r.truth(0, t, g), r.truth(0, t, level)
+
+
+def test_a_crest_hides_the_road_beyond_it(camera):
+    _r, _t, g, truth, level = _hill_truth(camera, crest=True)
+    farthest = max(d for d, x in zip(truth.row_distance_m, truth.left_x, strict=True) if x >= 0)
+    behind = math.sqrt(2 * Mount().height_m / g["vertical_curvature"])  # the slope down to the road is least there
+    assert farthest <= behind + 3
+    seen = lambda t: sum(x >= 0 for x in t.left_x + t.right_x)  # noqa: E731
+    assert seen(truth) < seen(level)
+
+
+def test_a_sag_shows_road_above_the_level_horizon_and_its_truth_sits_on_the_paint(camera):
+    r, t, _g, truth, level = _hill_truth(camera, crest=False)
+    top = min(h for h, x in zip(truth.h_samples, truth.left_x, strict=True) if x >= 0)
+    assert top < min(h for h, x in zip(level.h_samples, level.left_x, strict=True) if x >= 0)
+    img = r.render(t)
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+    on = [15 <= hsv[y, round(x)][0] <= 35 and hsv[y, round(x)][1] > 120
+          for x, y in zip(truth.left_x, truth.h_samples, strict=True) if x >= 0 and y >= 500]
+    assert len(on) >= 10 and all(on)  # the solid yellow line, where it is a few pixels wide

@@ -29,6 +29,10 @@ BARS = {
     "worn": (0.97, 0.02, 0.03, 0.0, 0.65),
     "double-yellow": (0.995, 0.02, 0.03, 0.0, 0.98),
     "sharp-curve": (0.96, 0.025, 0.1, 0.05, 0.57),
+    # Crests and sags break the flat road the bird's-eye view assumes (a two-lane road, its solid
+    # edge line the ego lane's right line, a cluttered verge): 0.967 measured on these 20 frames
+    # (offset error median 0.010 m, p90 0.039 m; 40-70 m 0.73); 0.939 over 30 frames.
+    "hills": (0.955, 0.02, 0.05, 0.0, 0.65),
 }
 
 

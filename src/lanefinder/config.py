@@ -337,6 +337,12 @@ class SearchConfig(_Section):
         Least peak height, as a fraction of a window's pixels.
     centre_preference : float
         Score a pair of bases loses per lane width its centre is off the car.
+    inner_preference : float
+        A pair of bases inside the best-scoring pair (each base at or inside it), nearer the
+        expected lane width, that scores at least this fraction of it is taken instead (of
+        several, the narrowest): a lane is bounded by the first marking out
+        from the car, and a kerb, rail or the next line beyond may be stronger.  0 (the
+        default) takes the best pair.
     pair_max_offset_m : float
         Farthest a pair of bases' centre may be off the car, metres (0: half a lane width
         either way, as before): a pair the car is not near the middle of (a line and the
@@ -382,6 +388,7 @@ class SearchConfig(_Section):
     max_peaks: Annotated[int, Field(ge=1, le=64)] = 8
     base_min_fraction: Fraction = 0.25
     centre_preference: Fraction = 0.3
+    inner_preference: Fraction = 0.0
     # A new lane must hold the car within ``tracking.max_offset_m`` of its centre, and a base
     # lies up to about half a metre off its line's x at the car in a bend: a pair centred
     # farther off than this cannot start a lane.

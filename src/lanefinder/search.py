@@ -74,6 +74,8 @@ class SearchParams:
     pair_max_offset_px : float
         Farthest a pair of bases' centre may be off the car, pixels (0: no limit beyond half
         the expected width either way).
+    inner_preference : float
+        As in the config.
     peak_smoothing_px : int
         Box filter width on the base histogram, pixels.
     max_peaks : int
@@ -119,6 +121,7 @@ class SearchParams:
     # Half-width of the band around each window's ridge that :func:`heading_search` keeps.
     heading_band_px: float = 0.0
     pair_max_offset_px: float = 0.0
+    inner_preference: float = 0.0
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
@@ -163,6 +166,7 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
         base_min_count=min_pixels * cfg.base_min_fraction,
         centre_preference=cfg.centre_preference,
         pair_max_offset_px=cfg.pair_max_offset_m / xm_per_px,
+        inner_preference=cfg.inner_preference,
         momentum=cfg.momentum,
         empty_window_decay=cfg.empty_window_decay,
         segment_reach=cfg.segment_reach,
@@ -398,6 +402,16 @@ def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[fl
         centre_penalty = off_centre / expected_width_px
         score = np.where(valid, (hs[li] + hs[ri]) * (1 - cfg.centre_preference * centre_penalty), -np.inf)
         i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+        if cfg.inner_preference > 0:
+            # A lane is bounded by the first marking out from the car on each side: a kerb, rail
+            # or the next line beyond it may be stronger.  A pair inside the best one, nearer the
+            # expected width, that scores at least inner_preference of it wins; of those, the
+            # narrowest (the innermost markings).
+            miss = np.abs(gap - expected_width_px)
+            inner = (li >= li[i, j]) & (ri <= ri[i, j]) & (score >= cfg.inner_preference * score[i, j])
+            inner &= miss < miss[i, j]
+            if inner.any():
+                i, j = np.unravel_index(int(np.argmin(np.where(inner, gap, np.inf))), gap.shape)
         return float(li[i, j]), float(ri[i, j]), float(score[i, j])
     best = int(peaks[0])
     side = (float(best), None) if best < car_x else (None, float(best))

@@ -70,6 +70,10 @@ LATERAL_AT_M = (6.0, 20.0)
 GLARE_GAIN, GLARE_GLOW = 1.45, 170.0
 #: Paint less than this many grey levels lighter than the road around it is not visible (not labelled).
 MIN_VISIBLE_CONTRAST = 6.0
+#: On a road with crests and sags, the farthest road drawn, m (beyond it: haze, drawn as sky).
+HILL_VIEW_M = 250.0
+#: On a road with crests and sags, rays up to this slope above the level horizon may meet a rising road.
+HILL_RAY_SLOPE = 0.08
 
 
 @dataclass(frozen=True)
@@ -114,6 +118,11 @@ class Conditions:
         Holes in the paint and missing dashes.
     double_yellow : bool
         A double yellow centre line instead of a single one.
+    roadside : bool
+        A two-lane road with a cluttered verge instead of grass: the ego lane's right line is the
+        road's edge (solid white, or bare), 0.3 m beyond it sunlit dirt in patches, dry stalks
+        along the road, and a guard rail (drawn on the ground: a bright band with dark posts),
+        which pass a lightness test as markings do.
 
     Examples
     --------
@@ -128,6 +137,7 @@ class Conditions:
     glare: bool = False
     worn: bool = False
     double_yellow: bool = False
+    roadside: bool = False
 
 
 #: Dash and gap lengths (m) a randomised road draws from: US 10/30 ft, the same in metres,
@@ -361,6 +371,11 @@ class Scenario:
         The hard conditions.
     description : str
         One line for ``lanefinder synth --list``.
+    vertical_curvature : tuple of float
+        The road's vertical curvature (base, amplitude), 1/m: positive a crest (the road falls
+        away ahead), negative a sag (it rises).  The car sits on the road and pitches with it, so
+        the road ``z`` m ahead lies ``vertical_curvature * z**2 / 2`` below the car's plane; a
+        crest hides the road beyond it.
     manoeuvres : tuple of (float, float, float)
         Moves across the road, each ``(start_s, duration_s, lateral_shift_m)``: the car's offset
         from its first lane's centre changes by ``lateral_shift_m`` (positive: to the right) over
@@ -386,6 +401,7 @@ class Scenario:
     conditions: Conditions = field(default_factory=Conditions)
     description: str = ""
     manoeuvres: tuple[tuple[float, float, float], ...] = ()
+    vertical_curvature: tuple[float, float] = (0.0, 0.0)
 
     @property
     def duration_s(self) -> float:
@@ -455,6 +471,12 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
                          (10.5, 2.5, 1.2), (14.0, 2.0, -1.2), (16.0, 2.0, -0.7), (18.5, 2.0, 0.7)),
              description="drifts 0.18/0.30 m over the left/right line and back; near misses 0.23-0.28 m inside "
                          "(550 frames)"),
+    # The flat-road assumption of the bird's-eye view, broken: a crest (vertical radius 900 m) hides
+    # the road beyond about 50 m, a sag lifts it; the lines converge or splay in the view.
+    Scenario("hills", speed_mps=16.0, curvature=(0.0, 1 / 450), vertical_curvature=(0.0, 1 / 900), period_s=6.0,
+             offset_m=(0.1, 0.2), conditions=Conditions(roadside=True),
+             description="crests and sags (vertical radius 900 m) on a winding two-lane road (R 450 m), a cluttered "
+                         "verge"),
 ]}
 
 
@@ -551,23 +573,27 @@ def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
     return pitch @ yaw
 
 
-_GroundSamples = tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+_GroundSamples = tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 _GROUND_CACHE: dict[bytes, _GroundSamples] = {}
 _GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p; sequences of one camera and mount share one
 
 
-def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int) -> _GroundSamples:
+def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int,
+                    hills: bool = False) -> _GroundSamples:
     """Give where every sub-pixel sample of the distorted frame meets the road (cached per camera and mount).
 
     Returns the first row band holding road (``r0``, in sub-pixel rows, whole output rows), the
-    road mask below it, the road's lateral X and distance Z there (m, float32), the sky frame and
-    the sky of the band.  Undistorting every sample costs about a second at 720p, so sequences of
-    the same camera and mount reuse it (the arrays are read-only).
+    road mask below it, the road's lateral X and distance Z there (m, float32) on a level road,
+    the sky frame, the sky of the band, and the samples' rays (level-frame directions, (3, ...)
+    float32) for a road with crests and sags.  With ``hills`` the band starts
+    ``HILL_RAY_SLOPE`` above the level horizon (a rising road shows there).  Undistorting every
+    sample costs about a second at 720p, so sequences of the same camera and mount reuse it
+    (the arrays are read-only).
     """
     w, h = camera.image_size
     key = b"|".join([np.asarray(camera.camera_matrix, np.float64).tobytes(),
                      np.asarray(camera.dist_coeffs, np.float64).tobytes(), np.asarray(rot, np.float64).tobytes(),
-                     np.float64(height_m).tobytes(), np.int64([w, h, s]).tobytes()])
+                     np.float64(height_m).tobytes(), np.int64([w, h, s, hills]).tobytes()])
     if key in _GROUND_CACHE:
         return _GROUND_CACHE[key]
     xs = (np.arange(w * s) + 0.5) / s - 0.5
@@ -582,7 +608,8 @@ def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: in
     grid = (h * s, w * s)
     ground = ground.reshape(grid)
     # Only the rows that hold road are shaded per frame; the sky is drawn once.
-    rows_with_road = np.flatnonzero(ground.any(axis=1))
+    band = (rays[:, 1] > -HILL_RAY_SLOPE * np.hypot(rays[:, 0], rays[:, 2])).reshape(grid) if hills else ground
+    rows_with_road = np.flatnonzero(band.any(axis=1))
     r0 = int(rows_with_road[0]) if rows_with_road.size else grid[0]
     r0 -= r0 % s  # whole output rows
     X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
@@ -590,7 +617,8 @@ def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: in
     up = np.clip(-(dy / np.linalg.norm(rays, axis=1)).reshape(grid) * 4, 0, 1).astype(np.float32)
     sky = np.stack([235 - 60 * up, 200 - 40 * up, 170 - 30 * up], -1)
     sky_full = cv2.resize(sky, (w, h), interpolation=cv2.INTER_AREA)
-    out = (r0, ground[r0:].copy(), X, Z, sky_full, sky[r0:].copy())
+    ray_band = rays.reshape(grid + (3,))[r0:].transpose(2, 0, 1).astype(np.float32) if hills else np.zeros((3, 0, 0))
+    out = (r0, ground[r0:].copy(), X, Z, sky_full, sky[r0:].copy(), ray_band)
     for a in out[1:]:
         a.flags.writeable = False
     while len(_GROUND_CACHE) >= _GROUND_CACHE_SIZE:
@@ -648,8 +676,9 @@ class Renderer:
             cracks = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 5)
             cracks = (cracks - cracks.mean()) / (cracks.std() + 1e-6)
             self.cracks = (np.abs(cracks) < 0.06).astype(np.float32)  # thin meandering contours
-        self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band = _ground_samples(
-            camera, self.rot, mount.height_m, supersample)
+        self.hills = any(v != 0 for v in scenario.vertical_curvature)
+        self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band, self.rays = _ground_samples(
+            camera, self.rot, mount.height_m, supersample, self.hills)
         self.size, self.s = (w, h), supersample
 
     # -- geometry ---------------------------------------------------------------------------
@@ -665,7 +694,7 @@ class Renderer:
         -------
         dict
             ``offset`` (m), ``heading`` (rad), ``curvature`` (1/m), ``curvature_rate``
-            (1/m^2), ``width`` (m), ``travelled`` (m).
+            (1/m^2), ``width`` (m), ``travelled`` (m), ``vertical_curvature`` (1/m).
         """
         sc = self.sc
         ph = 2 * math.pi * t / sc.period_s
@@ -676,7 +705,7 @@ class Renderer:
         g = {
             "offset": val(sc.offset_m), "heading": val(sc.heading, 1.3), "curvature": val(sc.curvature, 0.7),
             "curvature_rate": val(sc.curvature_rate, 2.1), "width": val(sc.width_m, 0.4),
-            "travelled": sc.speed_mps * t,
+            "travelled": sc.speed_mps * t, "vertical_curvature": val(sc.vertical_curvature, 2.7),
         }
         if sc.manoeuvres:
             # Moving sideways at v the car heads v/speed off the lane, so the lane turns the other way.
@@ -736,6 +765,49 @@ class Renderer:
         """
         return -g["offset"] + g["heading"] * z + g["curvature"] / 2 * z**2 + g["curvature_rate"] / 6 * z**3
 
+    def road_y(self, g: dict, z: np.ndarray | float) -> np.ndarray | float:
+        """Give how far below the camera the road lies at distances ahead (the level frame's y).
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry`.
+        z : float or ndarray
+            Distance ahead, m.
+
+        Returns
+        -------
+        float or ndarray
+            Depth below the camera, m: its height on a level road, more beyond a crest.
+        """
+        return self.mount.height_m + g.get("vertical_curvature", 0.0) / 2 * z**2
+
+    def meet_road(self, g: dict, rays: np.ndarray) -> np.ndarray:
+        """Give where rays from the camera first meet the road, as multiples of each ray (nan: never).
+
+        The road ``z`` ahead lies ``road_y`` below the camera: ``t * ry = H + k * (t * rz)**2 / 2``,
+        whose smaller positive root is ``2H / (ry + sqrt(ry**2 - 2 k H rz**2))``.  Rays past a
+        crest, and points farther than ``HILL_VIEW_M``, give nan.
+
+        Parameters
+        ----------
+        g : dict
+            From :meth:`geometry`.
+        rays : (3, ...) ndarray
+            Level-frame directions (x right, y down, z ahead).
+
+        Returns
+        -------
+        ndarray
+            The multiple t (the point is ``t * ray``), the shape of one component.
+        """
+        _, ry, rz = rays
+        k, height = g.get("vertical_curvature", 0.0), self.mount.height_m
+        with np.errstate(invalid="ignore", divide="ignore"):
+            den = ry + np.sqrt(ry * ry - 2 * k * height * rz * rz)
+            t = 2 * height / den
+        return np.where((den > 0) & (t * rz > 0) & (t * rz <= HILL_VIEW_M), t, np.nan)
+
     def truth(self, index: int, t: float, g: dict) -> FrameTruth:
         """Give the ground truth of a frame.
 
@@ -772,7 +844,7 @@ class Renderer:
             left, right = self._unoccluded(polys, rows, left), self._unoccluded(polys, rows, right)
         return FrameTruth(index, round(t, 4), float(k), float(1 / abs(k)) if abs(k) > 1e-9 else None,
                           float(-self.centre(g, z0)), float(g["width"]), rows, left, right,
-                          self._row_distances(rows), lateral)
+                          self._row_distances(rows, g), lateral)
 
     @staticmethod
     def _unoccluded(polys: list[np.ndarray], rows: list[int], xs: list[float]) -> list[float]:
@@ -785,12 +857,15 @@ class Renderer:
         """Give the farthest distance at which a marking is at least 1.5 px wide, m (at most 150 m)."""
         return float(min(150.0, self.camera.camera_matrix[0, 0] * self.look.marking_m / 1.5))
 
-    def _row_distances(self, rows: list[int]) -> list[float]:
+    def _row_distances(self, rows: list[int], g: dict) -> list[float]:
         """Give the distance ahead (m) of the road seen at each row's centre column; -1 above the road."""
         w = self.size[0]
         pts = np.array([[(w - 1) / 2, r] for r in rows], np.float64).reshape(-1, 1, 2)
         norm = cv2.undistortPoints(pts, self.camera.camera_matrix, self.camera.dist_coeffs).reshape(-1, 2)
         rays = np.column_stack([norm, np.ones(len(norm))]) @ self.rot
+        if self.hills:
+            z = self.meet_road(g, rays.T) * rays[:, 2]
+            return [round(float(v), 3) if np.isfinite(v) else -1.0 for v in z]
         out = []
         for ray in rays:
             out.append(round(float(self.mount.height_m / ray[1] * ray[2]), 3) if ray[1] > 1e-6 else -1.0)
@@ -799,7 +874,7 @@ class Renderer:
     def _line_image_at(self, g: dict, z: float) -> tuple[float, list[float]]:
         """Give the row of the road ``z`` m ahead and both lines' x there, distorted frame pixels."""
         xs = [self.centre(g, z) - 0.5 * g["width"], self.centre(g, z) + 0.5 * g["width"]]
-        pts = np.array([[x, self.mount.height_m, z] for x in xs])
+        pts = np.array([[x, self.road_y(g, z), z] for x in xs])
         rvec, _ = cv2.Rodrigues(self.rot)
         img, _ = cv2.projectPoints(pts, rvec, np.zeros(3), self.camera.camera_matrix, self.camera.dist_coeffs)
         img = img.reshape(-1, 2)
@@ -818,7 +893,7 @@ class Renderer:
             return [-2.0] * len(rows)
         z = np.geomspace(0.5, self.visible_m, 1500)
         x = self.centre(g, z) + side * g["width"]
-        pts = np.column_stack([x, np.full_like(z, self.mount.height_m), z])
+        pts = np.column_stack([x, np.broadcast_to(self.road_y(g, z), z.shape), z])
         cam = pts @ self.rot.T
         w, h = self.size
         k = self.camera.camera_matrix
@@ -827,6 +902,9 @@ class Renderer:
         # monotonic far outside the calibrated field.
         ok = (cam[:, 2] > 0) & (und[:, 0] > -0.1 * w) & (und[:, 0] < 1.1 * w) & (und[:, 1] > -0.1 * h) & (
             und[:, 1] < 1.1 * h)
+        if self.hills:  # beyond a crest the road sinks behind it: a point shows only above all nearer road
+            level = pts[:, 1] / z  # the slope below the level horizon
+            ok &= level <= np.minimum.accumulate(level) + 1e-12
         seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
         painted = seen & (self.paint_along(z + g["travelled"], marking.dashed) > 0)
         painted &= ~self.washed_out(t, und[:, 0], und[:, 1], marking.colour)
@@ -906,6 +984,8 @@ class Renderer:
             out = [Marking(-half, look.yellow, False, look.marking_m)]
         else:  # a bare edge
             out = []
+        if self.sc.conditions.roadside:  # a two-lane road: the ego lane's right line is the road's edge
+            return out + ([Marking(half, look.white, False, look.marking_m)] if look.right_edge_paint else [])
         out.append(Marking(half, look.white, True, look.marking_m))
         if look.right_edge_paint:
             out.append(Marking(1.5 * width, look.white, False, look.marking_m))
@@ -1001,6 +1081,11 @@ class Renderer:
         g = self.geometry(t)
         c, look = self.sc.conditions, self.look
         X, Z, ground = self.X, self.Z, self.ground
+        if self.hills:
+            hit = self.meet_road(g, self.rays)
+            ground = np.isfinite(hit)
+            hit = np.where(ground, hit, 0).astype(np.float32)
+            X, Z = hit * self.rays[0], hit * self.rays[2]
         Zc = np.where(ground, Z, 0).astype(np.float32)
         xc = self.centre(g, Zc).astype(np.float32)
         rel = (X - xc).astype(np.float32)  # lateral position relative to the lane centre
@@ -1025,11 +1110,14 @@ class Renderer:
             joint = np.abs(rel - look.seam_rel_m) < 0.05
             base = base - np.float32(look.tar_seams) * np.maximum(crack, joint.astype(np.float32))
         left_edge = {"white-dashed": -1.5 * width, "edge": -half}.get(look.left, -half)
-        off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > 1.5 * width + 1.5)
+        right_edge = half + 0.3 if c.roadside else 1.5 * width + 1.5
+        off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > right_edge)
         tint = look.tint
         grass = ((60, 10), (95, 12), (100, 10))  # B, G, R: level and grain off the road
         img = np.stack([np.where(off_road, lvl + k * tex, base * t) for (lvl, k), t in zip(grass, tint, strict=True)],
                        axis=-1).astype(np.float32)
+        if c.roadside:
+            self._verge(img, rel, u, off_road, right_edge)
 
         def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
                   width: float = look.marking_m) -> None:
@@ -1069,6 +1157,17 @@ class Renderer:
             out = out * GLARE_GAIN + GLARE_GLOW * self.glow(t, xx, yy)[..., None]
         return np.clip(out, 0, 255).astype(np.uint8)
 
+    def _verge(self, img: np.ndarray, rel: np.ndarray, u: np.ndarray, off_road: np.ndarray, right_m: float) -> None:
+        """Draw a cluttered verge over the grass (in place): dirt, dry stalks and a guard rail."""
+        patches = self._tex(rel + 7, u, self.blobs, 0.9, 0.35)  # sunlit dirt and shade, metres across
+        stalks = self._tex(rel + 3, u, self.texture, 7, 0.7)  # thin, long along the road
+        level = np.clip(135 + 30 * patches, 60, 200) + np.where(stalks > 1.6, np.float32(60), np.float32(0))
+        rail_at = np.abs(rel - (right_m + 0.8))
+        level = np.where(rail_at < 0.1, np.float32(215), level)
+        level = np.where((rail_at < 0.14) & ((u % 2.0) < 0.15), np.float32(55), level)  # posts
+        for ch, tint in enumerate((0.8, 0.95, 1.05)):  # a warm, dusty colour
+            img[..., ch] = np.where(off_road, level * tint, img[..., ch])
+
     def vehicles(self, t: float, g: dict) -> list[tuple[float, np.ndarray]]:
         """Give the vehicles ahead as image polygons, far to near (the order to draw them).
 
@@ -1085,10 +1184,10 @@ class Renderer:
             Each vehicle's grey level and the corners of its rear in the distorted frame, pixels.
         """
         out = []
-        h_cam = self.mount.height_m
         rvec, _ = cv2.Rodrigues(self.rot)
         for v in sorted(self.look.vehicles, key=lambda v: -v.z_at(t)):
             z = v.z_at(t)
+            h_cam = float(self.road_y(g, z))
             x = float(self.centre(g, z)) + v.lane * g["width"]
             pts = np.array([[x - 0.9, h_cam, z], [x + 0.9, h_cam, z], [x + 0.9, h_cam - 1.5, z],
                             [x - 0.9, h_cam - 1.5, z]])
@@ -1246,6 +1345,8 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         described = asdict(scenario)
         if not scenario.manoeuvres:
             del described["manoeuvres"]  # scenario.json as before manoeuvres existed
+        if not any(scenario.vertical_curvature):
+            del described["vertical_curvature"]  # (and as before hills)
         meta = {"scenario": described, "seed": seed, "frames": n_frames, "fps": fps,
                 "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
         if randomise:
