@@ -253,3 +253,19 @@ def test_a_sag_shows_road_above_the_level_horizon_and_its_truth_sits_on_the_pain
     on = [15 <= hsv[y, round(x)][0] <= 35 and hsv[y, round(x)][1] > 120
           for x, y in zip(truth.left_x, truth.h_samples, strict=True) if x >= 0 and y >= 500]
     assert len(on) >= 10 and all(on)  # the solid yellow line, where it is a few pixels wide
+
+
+def test_a_vehicle_behind_a_crest_shows_only_above_its_edge(camera):
+    hills = SCENARIOS["hills"]
+    look = replace(Appearance(), vehicles=(Vehicle(lane=0, z0_m=85.0, closing_mps=0.0, grey=60.0),))
+    r = Renderer(camera, Mount(), hills, supersample=1, appearance=look)
+    t = (math.pi / 2 - 2.7) % (2 * math.pi) * hills.period_s / (2 * math.pi)  # the crest
+    g = r.geometry(t)
+    [(_, poly)] = r.vehicles(t, g)
+    truth = r.truth(0, t, g)
+    edge_row = min(h for h, x in zip(truth.h_samples, truth.left_x, strict=True) if x >= 0)
+    assert poly[:2, 1].max() <= edge_row + 10  # its foot is cut at the crest's edge (rows 10 px apart)
+    assert poly[2:, 1].max() < poly[:2, 1].min()  # and its top shows above it
+    flat = Renderer(camera, Mount(), SCENARIOS["straight"], supersample=1, appearance=look)
+    [(_, whole)] = flat.vehicles(0.0, flat.geometry(0.0))
+    assert whole[:2, 1].min() > whole[2:, 1].max()  # on a level road the rear is drawn whole

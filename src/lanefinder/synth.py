@@ -70,7 +70,9 @@ LATERAL_AT_M = (6.0, 20.0)
 GLARE_GAIN, GLARE_GLOW = 1.45, 170.0
 #: Paint less than this many grey levels lighter than the road around it is not visible (not labelled).
 MIN_VISIBLE_CONTRAST = 6.0
-#: On a road with crests and sags, the farthest road drawn, m (beyond it: haze, drawn as sky).
+#: On a road with crests and sags, the farthest road drawn, m (beyond it: haze, drawn as sky).  Rays
+#: are traced from ``HILL_RAY_SLOPE`` above the level horizon down, so at the deepest sag of
+#: ``hills`` the road drawn ends sooner, at about 160-180 m: beyond the truth's reach (150 m at most).
 HILL_VIEW_M = 250.0
 #: On a road with crests and sags, rays up to this slope above the level horizon may meet a rising road.
 HILL_RAY_SLOPE = 0.08
@@ -575,7 +577,7 @@ def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
 
 _GroundSamples = tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 _GROUND_CACHE: dict[bytes, _GroundSamples] = {}
-_GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p; sequences of one camera and mount share one
+_GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p (80 MB for hills); sequences of one camera and mount share one
 
 
 def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int,
@@ -1192,7 +1194,32 @@ class Renderer:
             pts = np.array([[x - 0.9, h_cam, z], [x + 0.9, h_cam, z], [x + 0.9, h_cam - 1.5, z],
                             [x - 0.9, h_cam - 1.5, z]])
             img, _ = cv2.projectPoints(pts, rvec, np.zeros(3), self.camera.camera_matrix, self.camera.dist_coeffs)
-            out.append((v.grey, img.reshape(-1, 2)))
+            img = img.reshape(-1, 2)
+            if self.hills:  # behind a crest: only what rises above the crest's edge shows
+                img = self._behind_crest(g, x, z, img, rvec)
+                if img is None:
+                    continue
+            out.append((v.grey, img))
+        return out
+
+    def _behind_crest(self, g: dict, x: float, z: float, img: np.ndarray, rvec: np.ndarray) -> np.ndarray | None:
+        """Cut a vehicle's rear (corners: bottom two, then top two) at the edge of a crest before it.
+
+        The road nearer than ``z`` hides what lies below its highest point in the image: the
+        bottom corners are raised to that row; None when all of the rear is hidden.
+        """
+        near = np.linspace(0.5, z, 400)
+        slope = self.road_y(g, near) / near  # below the level horizon: the smallest shows highest
+        k = int(np.argmin(slope))
+        if slope[k] >= float(self.road_y(g, z)) / z:
+            return img  # the road up to the vehicle is all in view
+        edge, _ = cv2.projectPoints(np.array([[x, float(self.road_y(g, near[k])), near[k]]]), rvec, np.zeros(3),
+                                    self.camera.camera_matrix, self.camera.dist_coeffs)
+        row = float(edge.reshape(2)[1])
+        if img[2:, 1].min() >= row:
+            return None
+        out = img.copy()
+        out[:2, 1] = np.minimum(out[:2, 1], row)
         return out
 
     def frames(self, n: int, fps: float = 25.0) -> Iterator[tuple[np.ndarray, FrameTruth]]:
@@ -1347,6 +1374,8 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
             del described["manoeuvres"]  # scenario.json as before manoeuvres existed
         if not any(scenario.vertical_curvature):
             del described["vertical_curvature"]  # (and as before hills)
+        if not scenario.conditions.roadside:
+            del described["conditions"]["roadside"]
         meta = {"scenario": described, "seed": seed, "frames": n_frames, "fps": fps,
                 "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
         if randomise:
