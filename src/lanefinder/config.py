@@ -753,8 +753,8 @@ class SelfCalConfig(_Section):
         straight frame is enough when the focal length is known) ...
     still_height_m : tuple of float
         ... and takes it when the camera height it implies (from the lane width) is in this
-        range, a car's dashcam, m (one frame cannot tell a hill from a camera pitched
-        otherwise; a curving road read as straight gives too high a camera) ...
+        range, a car's or an SUV's dashcam, m (one frame cannot tell a hill from a camera
+        pitched otherwise; a curving road read as straight gives too high a camera) ...
     still_max_car_m : float
         ... and it places the car at most this far from where the set-up in use does, m (one
         frame cannot tell a car off its lane's centre from a camera turned).
@@ -782,7 +782,7 @@ class SelfCalConfig(_Section):
     dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
     skip_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
     stills: bool = True
-    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.6)
+    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.8)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.3
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
 
