@@ -783,7 +783,7 @@ class SelfCalConfig(_Section):
     skip_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
     stills: bool = True
     still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.8)
-    still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.3
+    still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
 
     @model_validator(mode="after")
