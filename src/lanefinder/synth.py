@@ -577,7 +577,7 @@ def level_to_camera(pitch_deg: float, yaw_deg: float = 0.0) -> np.ndarray:
 
 _GroundSamples = tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 _GROUND_CACHE: dict[bytes, _GroundSamples] = {}
-_GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p (80 MB for hills); sequences of one camera and mount share one
+_GROUND_CACHE_SIZE = 2  # about 50 MB an entry at 720p; sequences of one camera and mount share one
 
 
 def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: int,
@@ -587,8 +587,9 @@ def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: in
     Returns the first row band holding road (``r0``, in sub-pixel rows, whole output rows), the
     road mask below it, the road's lateral X and distance Z there (m, float32) on a level road,
     the sky frame, the sky of the band, and the samples' rays (level-frame directions, (3, ...)
-    float32) for a road with crests and sags.  With ``hills`` the band starts
-    ``HILL_RAY_SLOPE`` above the level horizon (a rising road shows there).  Undistorting every
+    float32).  With ``hills`` (crests and sags) the band starts ``HILL_RAY_SLOPE`` above the
+    level horizon (a rising road shows there) and only the rays are given (the mask, X and Z
+    are empty: the road is met per frame); without, the rays are empty.  Undistorting every
     sample costs about a second at 720p, so sequences of the same camera and mount reuse it
     (the arrays are read-only).
     """
@@ -614,13 +615,19 @@ def _ground_samples(camera: CameraModel, rot: np.ndarray, height_m: float, s: in
     rows_with_road = np.flatnonzero(band.any(axis=1))
     r0 = int(rows_with_road[0]) if rows_with_road.size else grid[0]
     r0 -= r0 % s  # whole output rows
-    X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
-    Z = (t * rays[:, 2]).reshape(grid)[r0:].astype(np.float32)
     up = np.clip(-(dy / np.linalg.norm(rays, axis=1)).reshape(grid) * 4, 0, 1).astype(np.float32)
     sky = np.stack([235 - 60 * up, 200 - 40 * up, 170 - 30 * up], -1)
     sky_full = cv2.resize(sky, (w, h), interpolation=cv2.INTER_AREA)
-    ray_band = rays.reshape(grid + (3,))[r0:].transpose(2, 0, 1).astype(np.float32) if hills else np.zeros((3, 0, 0))
-    out = (r0, ground[r0:].copy(), X, Z, sky_full, sky[r0:].copy(), ray_band)
+    if hills:  # the road is met frame by frame (Renderer.meet_road): only the rays are kept
+        none = np.zeros((0, 0), np.float32)
+        road, X, Z = none.astype(bool), none, none
+        ray_band = rays.reshape(grid + (3,))[r0:].transpose(2, 0, 1).astype(np.float32)
+    else:
+        road = ground[r0:].copy()
+        X = (t * rays[:, 0]).reshape(grid)[r0:].astype(np.float32)
+        Z = (t * rays[:, 2]).reshape(grid)[r0:].astype(np.float32)
+        ray_band = np.zeros((3, 0, 0), np.float32)
+    out = (r0, road, X, Z, sky_full, sky[r0:].copy(), ray_band)
     for a in out[1:]:
         a.flags.writeable = False
     while len(_GROUND_CACHE) >= _GROUND_CACHE_SIZE:
