@@ -68,6 +68,7 @@ __all__ = [
     "line_segments",
     "prepare_frame",
     "preview",
+    "road_from_lines",
     "road_homography",
     "road_points",
     "straight_frames_from_video",
@@ -709,6 +710,74 @@ def road_points(g: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     p = np.column_stack([np.asarray(pixels, np.float64).reshape(-1, 2), np.ones(len(np.atleast_2d(pixels)))])
     q = p @ np.linalg.inv(g).T
     return q[:, :2] / q[:, 2:]
+
+
+def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np.ndarray, bottom_y_px: float,
+                    lane_width_m: float = LANE_WIDTH_M) -> RoadEstimate:
+    """Estimate the road plane from the near parts of the two lines of one lane, on a curve too.
+
+    A straight line is fitted to each line's pixels (``x = a + b y``, least squares); where
+    the two meet is taken as the vanishing point.  On a straight road that is the road's; on a
+    curve the two lines' near parts are concentric arcs whose chords over the same stretch of
+    road are parallel, so they still meet on the horizon (the column then mixes the camera's
+    yaw with the curve's heading, which a single frame cannot tell apart).  The camera height
+    follows from the lane's width (``lane_width_m``) between the two fits at ``bottom_y_px``.
+
+    Parameters
+    ----------
+    left_px, right_px : (N, 2) array_like
+        (x, y) pixels of the left and the right line, undistorted, near the car (at least 10
+        each, over at least 20 rows).
+    camera_matrix : (3, 3) ndarray
+        The camera's K.
+    bottom_y_px : float
+        The row the lane width is measured at, pixels.
+    lane_width_m : float
+        The lane's width, m.
+
+    Returns
+    -------
+    RoadEstimate
+        The vanishing point, the camera height and the lane centre's lateral place (no
+        evidence frames: ``frames_used`` is 0).
+
+    Raises
+    ------
+    LaneFinderError
+        When a line has too few pixels, the lines do not meet above ``bottom_y_px``, or the
+        right line is not right of the left one at that row.
+
+    Examples
+    --------
+    >>> k = np.array([[1000.0, 0, 640], [0, 1000.0, 360], [0, 0, 1]])
+    >>> g = road_homography(k, (640.0, 380.0), 1.5)
+    >>> z = np.linspace(6, 20, 30)
+    >>> left, right = (_image_points(g, np.column_stack([np.full(30, x), z])) for x in (-1.55, 2.15))
+    >>> est = road_from_lines(left, right, k, 700.0, 3.7)
+    >>> [round(v, 2) for v in (*est.vp, est.height_m, est.centre_m)]
+    [640.0, 380.0, 1.5, 0.3]
+    """
+    fits = []
+    for pts in (left_px, right_px):
+        p = np.asarray(pts, np.float64).reshape(-1, 2)
+        if len(p) < 10 or np.ptp(p[:, 1]) < 20:
+            raise LaneFinderError("a line has too few pixels near the car to read the road from")
+        b, a = np.polyfit(p[:, 1], p[:, 0], 1)
+        fits.append((a, b))
+    (a1, b1), (a2, b2) = fits
+    if abs(b1 - b2) < 1e-6:
+        raise LaneFinderError("the two lines do not meet: no vanishing point")
+    y_v = (a2 - a1) / (b1 - b2)
+    if not y_v < bottom_y_px - 20:
+        raise LaneFinderError(f"the two lines meet at row {y_v:.0f}, not above the bottom row")
+    vp = (float(a1 + b1 * y_v), float(y_v))
+    x_at = [[a1 + b1 * bottom_y_px, bottom_y_px], [a2 + b2 * bottom_y_px, bottom_y_px]]
+    across = road_points(road_homography(camera_matrix, vp, 1.0), x_at)[:, 0]  # on a road 1 m down
+    if not across[1] > across[0]:
+        raise LaneFinderError("the right line is not right of the left one")
+    height = lane_width_m / float(across[1] - across[0])
+    return RoadEstimate(camera_matrix=np.asarray(camera_matrix, np.float64), vp=vp, height_m=height,
+                        centre_m=float(across.mean()) * height, focal_source="camera file", evidence=())
 
 
 def _image_points(g: np.ndarray, road: np.ndarray) -> np.ndarray:

@@ -761,6 +761,10 @@ class SelfCalConfig(_Section):
     still_min_radius_m : float
         A still whose lane the config's set-up reads as curving tighter than this is not looked
         at (one frame of a curving road can mislead the estimate), m (0: every still is).
+    still_lines : bool
+        A still that gives no set-up of its own (a curving road, say) is found again with the
+        set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
+        that result is kept when it has a lane and its lines are no less sure.
 
     Examples
     --------
@@ -785,6 +789,7 @@ class SelfCalConfig(_Section):
     still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.8)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
+    still_lines: bool = True
 
     @model_validator(mode="after")
     def _check_heights(self) -> SelfCalConfig:

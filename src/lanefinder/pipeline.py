@@ -24,7 +24,7 @@ from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measurer, measure
 from .search import Pixels
-from .selfcal import SelfCalibrator, still_setup
+from .selfcal import SelfCalibrator, lines_setup, still_setup
 from .selfcal import wanted as selfcal_wanted
 from .threshold import rowwise, threshold
 from .tracking import Track, Verdict, step
@@ -110,6 +110,11 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     cam = camera.scaled_to(frame_size)
     src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+
+
+def _sureness(result: LaneResult) -> float:
+    """Give the mean of a result's two line confidences (to choose between two set-ups of one still)."""
+    return (result.left.confidence + result.right.confidence) / 2
 
 
 def _check_frame(frame: np.ndarray) -> None:
@@ -298,15 +303,34 @@ class LaneFinder:
             self._config_birdseye = self.birdseye(size)
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
-        first = replace(self.process(frame), setup="default")
+        keep, self.keep_debug = self.keep_debug, True  # the lines' pixels, for lines_setup
+        try:
+            first = replace(self.process(frame), setup="default")
+        finally:
+            self.keep_debug = keep
+        search = first.search
+        if not keep:
+            first = replace(first, binary=None, search=None)
         if first.lane_found and abs(first.curvature_per_m) * self.config.selfcal.still_min_radius_m > 1:
             return first  # a curving road: one frame's vanishing point and lines are not to be trusted
         own = still_setup(frame, self.config, self._config_birdseye)
-        if own is None:
+        if own is not None:
+            self.use_birdseye(own)
+            self.reset()
+            return replace(self.process(frame), setup="estimated")
+        if not self.config.selfcal.still_lines or search is None:
             return first
-        self.use_birdseye(own)
+        from_lines = lines_setup(self._config_birdseye, search.left, search.right)
+        if from_lines is None:
+            return first
+        self.use_birdseye(from_lines)
         self.reset()
-        return replace(self.process(frame), setup="estimated")
+        second = self.process(frame)
+        if second.lane_found and (not first.lane_found or _sureness(second) >= _sureness(first)):
+            return replace(second, setup="lines")
+        self.use_birdseye(self._config_birdseye)
+        self.reset()
+        return first
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""

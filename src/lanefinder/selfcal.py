@@ -20,14 +20,15 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, view_from_estimate
+from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, road_from_lines, view_from_estimate
 from .birdseye import BirdsEye, make_birdseye, setup_of
 from .camera import CameraModel
 from .config import LANE_WIDTH_M, BirdseyeConfig, Config
 from .errors import LaneFinderError
 from .evaluate import setup_error
+from .search import LinePixels
 
-__all__ = ["SelfCalibrator", "SetupState", "setup_of", "still_setup", "wanted"]
+__all__ = ["SelfCalibrator", "SetupState", "lines_setup", "setup_of", "still_setup", "wanted"]
 
 
 @dataclass(frozen=True)
@@ -250,3 +251,71 @@ def still_setup(frame: np.ndarray, config: Config, current: BirdsEye) -> BirdsEy
     if not low <= cal.state.height_m <= high or moved_m > config.selfcal.still_max_car_m:
         return None
     return new
+
+
+#: The near part of the view whose line pixels :func:`lines_setup` reads the road from (a
+#: fraction of the view's height, from its bottom: about 18 m of a 30 m view).
+LINES_NEAR_FRACTION = 0.6
+#: The horizon :func:`lines_setup` finds may lie this fraction of the frame's height above or
+#: below the one in use (120 px at 720p: about 6 degrees of pitch with the Udacity lens).
+LINES_MAX_SHIFT = 1 / 6
+#: ... and must differ from it by more than this fraction of the frame's height (10 px at 720p),
+#: or the set-up in use is kept: on 49 stills of the project video, whose default set-up is
+#: right, the estimate's horizon lay within 5.5 px of it on 45 and 10.5 px at most.
+LINES_MIN_SHIFT = 1 / 72
+
+
+def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels) -> BirdsEye | None:
+    """Give a still's set-up from the near parts of the lines found in it with another set-up.
+
+    For a still that gives no set-up of its own (:func:`still_setup`: a curving road, say),
+    the two lines' pixels in the nearest ``LINES_NEAR_FRACTION`` of the view are mapped back
+    to the frame, and the road read from where their straight fits meet and how far apart they
+    are (:func:`lanefinder.autosetup.road_from_lines`).  With a set-up that pitches the road
+    wrong, the lines splay or close in the view; the set-up returned makes them parallel.
+
+    Parameters
+    ----------
+    current : BirdsEye
+        The set-up the lines were found with.
+    left, right : LinePixels
+        Their pixels in its view.
+
+    Returns
+    -------
+    BirdsEye or None
+        The set-up the lines give, or None when they give none (too few pixels near the car,
+        lines that do not meet above the car, or a horizon more than ``LINES_MAX_SHIFT`` of the
+        frame's height from the one in use), or when it is too close to ``current`` to tell
+        from it (the horizon within ``LINES_MIN_SHIFT`` of the frame's height).
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> from lanefinder.search import LinePixels
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> y = np.arange(100.0, 300.0)
+    >>> lines_setup(be, LinePixels(x=np.full(200, 125.0), y=y), LinePixels(x=np.full(200, 275.0), y=y)) is None
+    True
+    >>> new = lines_setup(be, LinePixels(x=125 - (y - 100) / 8, y=y), LinePixels(x=275 + (y - 100) / 8, y=y))
+    >>> round(setup_of(new)[0] - setup_of(be)[0]), round(setup_of(new)[1] / setup_of(be)[1], 2)
+    (17, 0.7)
+    """
+    h_view = current.size[1]
+    pts = []
+    for line in (left, right):
+        near = line.y >= h_view * (1 - LINES_NEAR_FRACTION)
+        if np.count_nonzero(near) < 10:
+            return None
+        pts.append(current.to_undistorted(np.column_stack([line.x[near], line.y[near]])))
+    opts = SetupOptions(lane_width_m=LANE_WIDTH_M)
+    w, h = current.frame_size
+    k = current.camera.camera_matrix
+    try:
+        est = road_from_lines(pts[0], pts[1], k, opts.bottom_fraction * (h - 1), opts.lane_width_m)
+        if not LINES_MIN_SHIFT * h < abs(est.vp[1] - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
+            return None
+        b, _, _ = view_from_estimate(est, (w, h), opts)
+    except LaneFinderError:
+        return None
+    return make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
