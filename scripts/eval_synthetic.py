@@ -20,6 +20,11 @@ leaves out paint hidden behind a vehicle.
 `--config CFG` runs the pipeline with that config's settings (the sequences' own camera and
 set-up still apply): `--config before.toml` with an older setting gives a before/after on the same
 scenes. `--reuse` keeps sequences already rendered in the output folder.
+
+`--self-calibrate` runs each sequence as a user with an unknown camera mount would: with the
+lens but without the set-up (`lanefinder video` with no `[birdseye]`), so the default set-up is
+used until self-calibration has an estimate of its own (telemetry `telemetry_selfcal.jsonl`,
+report `report_selfcal.json`).
 """
 
 from __future__ import annotations
@@ -47,15 +52,19 @@ def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, r
 
 
 def run(name: str, frames: int, seeds: list[int], out: Path, base: Config, randomise: bool = True,
-        reuse: bool = False):
+        reuse: bool = False, own_setup: bool = True):
     gt, pred = {}, {}
     for seed in seeds:
         folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse)
         own = load_config(folder / "config.toml")
-        cfg = base.model_copy(update={"camera": own.camera, "birdseye": own.birdseye})
-        process_video(folder / "video.mp4", None, cfg, telemetry=folder / "telemetry.jsonl", progress=False)
+        # With the exact set-up, or (own_setup False) with the camera's lens only, as a user with an
+        # unknown mount runs `lanefinder video`: the default set-up, then self-calibration.
+        update = {"camera": own.camera, "birdseye": own.birdseye} if own_setup else {"camera": own.camera}
+        cfg = base.model_copy(update=update)
+        tele = folder / ("telemetry.jsonl" if own_setup else "telemetry_selfcal.jsonl")
+        process_video(folder / "video.mp4", None, cfg, telemetry=tele, progress=False)
         gt.update({f"{seed}/{k}": v for k, v in read_ground_truth(folder / "gt.jsonl").items()})
-        pred.update({f"{seed}/{k}": v for k, v in read_predictions(folder / "telemetry.jsonl").items()})
+        pred.update({f"{seed}/{k}": v for k, v in read_predictions(tele).items()})
     return evaluate(gt, pred)
 
 
@@ -69,11 +78,14 @@ def main() -> int:
                     help="the fixed look and camera mount of each scenario instead of a look drawn from the seed")
     ap.add_argument("--config", type=Path, help="pipeline settings (the sequences' camera and set-up still apply)")
     ap.add_argument("--reuse", action="store_true", help="keep sequences already rendered under --out")
+    ap.add_argument("--self-calibrate", action="store_true",
+                    help="run without each sequence's set-up (its lens only): the default set-up and self-calibration")
     a = ap.parse_args()
     base = load_config(a.config) if a.config else Config()
     results = {}
     for name in a.only or SCENARIOS:
-        results[name] = run(name, a.frames, a.seeds, a.out, base, randomise=not a.fixed, reuse=a.reuse)
+        results[name] = run(name, a.frames, a.seeds, a.out, base, randomise=not a.fixed, reuse=a.reuse,
+                            own_setup=not a.self_calibrate)
         head, row = results[name].table(name).split("\n")
         if len(results) == 1:
             print(head)
@@ -82,10 +94,12 @@ def main() -> int:
     for i, (name, rep) in enumerate(results.items()):
         print(rep.band_table(name, header=i == 0))
     a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "report.json").write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
+    report = a.out / ("report_selfcal.json" if a.self_calibrate else "report.json")
+    report.write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
     look = "fixed look" if a.fixed else "look and camera drawn from each seed"
-    print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}, {look}; report: {a.out / 'report.json'}")
+    setup = "the default set-up and self-calibration" if a.self_calibrate else "each sequence's exact set-up"
+    print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}, {look}, {setup}; report: {report}")
     return 0
 
 

@@ -769,14 +769,14 @@ class SelfCalConfig(_Section):
     Examples
     --------
     >>> SelfCalConfig().enabled, SelfCalConfig().min_frames
-    (True, 8)
+    (True, 4)
     """
 
     enabled: bool = True
-    every_frames: Annotated[int, Field(ge=1, le=1000)] = 4
+    every_frames: Annotated[int, Field(ge=1, le=1000)] = 2
     fast_frames: Annotated[int, Field(ge=0, le=1_000_000)] = 250
     refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 50
-    min_frames: Annotated[int, Field(ge=1, le=1000)] = 8
+    min_frames: Annotated[int, Field(ge=1, le=1000)] = 4
     window_frames: Annotated[int, Field(ge=1, le=1000)] = 40
     work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
     change_xm_pct: Annotated[float, Field(gt=0, le=100)] = 3.0

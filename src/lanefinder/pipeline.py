@@ -215,8 +215,9 @@ class LaneFinder:
     def use_birdseye(self, be: BirdsEye) -> None:
         """Put another set-up in use for frames of its size.
 
-        The track is kept: for a set-up that differs a little (self-calibration's), the search
-        around the lines found so far allows for it; call :meth:`reset` to start afresh.
+        The track is kept: for a set-up that differs a little, the search around the lines
+        found so far allows for it; call :meth:`reset` to start afresh (:meth:`process` does,
+        when self-calibration changes the set-up).
 
         Parameters
         ----------
@@ -256,7 +257,11 @@ class LaneFinder:
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
         new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)
         if new is not None:
-            self.use_birdseye(new)  # from the next frame on
+            # From the next frame on, and searched for afresh: lines tracked in the old view would be
+            # looked for in the wrong place of the new one (a track kept across a large change held
+            # a wrong lane width on synthetic footage of unknown mounts).
+            self.use_birdseye(new)
+            self.reset()
         return replace(result, setup=self.selfcal.state.source)
 
     def process_still(self, frame: np.ndarray) -> LaneResult:
