@@ -141,6 +141,39 @@ def test_the_road_read_from_two_lines_near_the_car_is_the_true_one_on_a_curve_to
     parallel = image(-1.6 + 0 * z)
     with pytest.raises(LaneFinderError, match="do not meet"):
         road_from_lines(parallel, parallel + (300.0, 0.0), k, 684.0)
+    bad = image(-1.6 + 0 * z)
+    bad[3, 1] = np.nan
+    with pytest.raises(LaneFinderError, match="finite"):
+        road_from_lines(bad, image(2.1 + 0 * z), k, 684.0)
+    with pytest.raises(LaneFinderError, match="finite"):
+        road_from_lines(np.ones((40, 3)), image(2.1 + 0 * z), k, 684.0)
+    with pytest.raises(LaneFinderError, match="positive"):
+        road_from_lines(image(-1.6 + 0 * z), image(2.1 + 0 * z), k, 684.0, lane_width_m=0.0)
+    y = np.linspace(500, 700, 40)  # two lines crossing at row 600, among their own pixels
+    with pytest.raises(LaneFinderError, match="not above"):
+        road_from_lines(np.column_stack([600 + (y - 600), y]), np.column_stack([600 - (y - 600), y]), k, 684.0)
+    # With a known column, only the row comes from the lines.
+    est = road_from_lines(image(-1.6 + 0 * z), image(2.1 + 0 * z), k, 684.0, 3.7, vp_x=640.0)
+    assert est.vp == pytest.approx((640.0, 450.0), abs=0.5)
+
+
+def test_a_still_reading_that_is_implausible_or_too_close_to_the_setup_in_use_is_not_taken():
+    from lanefinder.search import LinePixels
+    from lanefinder.selfcal import lines_setup
+
+    be = LaneFinder().birdseye((1280, 720))
+    y = np.arange(100.0, 300.0)
+
+    def reading(left_x: np.ndarray, right_x: np.ndarray):
+        return lines_setup(be, LinePixels(x=left_x, y=y), LinePixels(x=right_x, y=y))
+
+    assert reading(np.full(200, 125.0), np.full(200, 275.0)) is None  # parallel: the set-up in use is right
+    assert reading(125 + (y - 100), 275 - (y - 100)) is None  # lines crossing among their own pixels
+    assert reading(125 - (y - 100) / 2, 275 + (y - 100) / 2) is None  # a camera 0.46 m high
+    assert reading(130 - (y - 100) / 16, 270 + (y - 100) / 16) is not None  # 11 px lower, 1.10 m high
+    # ... and a still's pixels are kept when the caller asks for them.
+    still = LaneFinder(keep_debug=True).process_still(np.zeros((720, 1280, 3), np.uint8))
+    assert still.binary is not None and still.search is not None
 
 
 @pytest.mark.slow
@@ -158,12 +191,17 @@ def test_a_still_of_a_curve_is_seen_with_the_setup_its_lines_give(pitch):
     on = LaneFinder()
     plain, lines = off.process_still(still), on.process_still(still)
     assert plain.setup == "default" and lines.setup == "lines"  # a curve: no vanishing point of its own
+    exact_cfg = Config.model_validate({"camera": {"model": "none"}, "birdseye": r.birdseye_config()})
+    exact = LaneFinder(exact_cfg, camera=cam).process(still)
     # Measured: the default horizon 21 and 41 px off, the lines' 2 and 1 px; the default reads
-    # R 79 m or finds no lane, the lines' set-up R 285 and 279 m, the lane 3.78 and 3.71 m wide.
+    # R 79 m or finds no lane, the lines' set-up R 274 and 258 m, the lane 3.76 and 3.70 m wide,
+    # the car 0.18 and 0.20 m from where the exact set-up puts it (the column kept: the lines'
+    # own column put it 0.4-0.7 m off).
     assert abs(setup_of(off.birdseye((1280, 720)))[0] - true_horizon) > 20
     assert abs(setup_of(on.birdseye((1280, 720)))[0] - true_horizon) < 5
     assert not plain.lane_found or abs(plain.radius_m - 250) > 100
     assert lines.lane_found and abs(lines.radius_m - 250) < 50 and abs(lines.width_m - 3.7) < 0.15
+    assert abs(lines.offset_m - exact.offset_m) < 0.25
     assert plain.search is None and lines.search is None  # the pixels are kept only when asked for
 
 

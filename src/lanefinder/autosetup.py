@@ -713,15 +713,16 @@ def road_points(g: np.ndarray, pixels: np.ndarray) -> np.ndarray:
 
 
 def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np.ndarray, bottom_y_px: float,
-                    lane_width_m: float = LANE_WIDTH_M) -> RoadEstimate:
+                    lane_width_m: float = LANE_WIDTH_M, vp_x: float | None = None) -> RoadEstimate:
     """Estimate the road plane from the near parts of the two lines of one lane, on a curve too.
 
     A straight line is fitted to each line's pixels (``x = a + b y``, least squares); where
     the two meet is taken as the vanishing point.  On a straight road that is the road's; on a
     curve the two lines' near parts are concentric arcs whose chords over the same stretch of
     road are parallel, so they still meet on the horizon (the column then mixes the camera's
-    yaw with the curve's heading, which a single frame cannot tell apart).  The camera height
-    follows from the lane's width (``lane_width_m``) between the two fits at ``bottom_y_px``.
+    yaw with the curve's heading, which a single frame cannot tell apart: ``vp_x`` keeps a
+    known column instead).  The camera height follows from the lane's width (``lane_width_m``)
+    between the two fits at ``bottom_y_px``.
 
     Parameters
     ----------
@@ -734,6 +735,8 @@ def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np
         The row the lane width is measured at, pixels.
     lane_width_m : float
         The lane's width, m.
+    vp_x : float, optional
+        The vanishing point's column to keep, pixels (None: where the two fits meet).
 
     Returns
     -------
@@ -744,8 +747,9 @@ def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np
     Raises
     ------
     LaneFinderError
-        When a line has too few pixels, the lines do not meet above ``bottom_y_px``, or the
-        right line is not right of the left one at that row.
+        When the pixels are not finite (N, 2) arrays, a line has too few of them, the lines
+        do not meet above all their pixels and ``bottom_y_px``, the right line is not right of
+        the left one at that row, or ``lane_width_m`` is not positive.
 
     Examples
     --------
@@ -757,20 +761,25 @@ def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np
     >>> [round(v, 2) for v in (*est.vp, est.height_m, est.centre_m)]
     [640.0, 380.0, 1.5, 0.3]
     """
-    fits = []
+    if not lane_width_m > 0:
+        raise LaneFinderError(f"the lane width must be positive, not {lane_width_m}")
+    fits, top = [], math.inf
     for pts in (left_px, right_px):
-        p = np.asarray(pts, np.float64).reshape(-1, 2)
+        p = np.asarray(pts, np.float64)
+        if p.ndim != 2 or p.shape[1] != 2 or not np.isfinite(p).all():
+            raise LaneFinderError("each line's pixels must be a finite (N, 2) array of (x, y)")
         if len(p) < 10 or np.ptp(p[:, 1]) < 20:
             raise LaneFinderError("a line has too few pixels near the car to read the road from")
         b, a = np.polyfit(p[:, 1], p[:, 0], 1)
         fits.append((a, b))
+        top = min(top, float(p[:, 1].min()))
     (a1, b1), (a2, b2) = fits
     if abs(b1 - b2) < 1e-6:
         raise LaneFinderError("the two lines do not meet: no vanishing point")
     y_v = (a2 - a1) / (b1 - b2)
-    if not y_v < bottom_y_px - 20:
-        raise LaneFinderError(f"the two lines meet at row {y_v:.0f}, not above the bottom row")
-    vp = (float(a1 + b1 * y_v), float(y_v))
+    if not y_v < min(top, bottom_y_px - 20):
+        raise LaneFinderError(f"the two lines meet at row {y_v:.0f}, not above their pixels and the bottom row")
+    vp = (float(a1 + b1 * y_v) if vp_x is None else float(vp_x), float(y_v))
     x_at = [[a1 + b1 * bottom_y_px, bottom_y_px], [a2 + b2 * bottom_y_px, bottom_y_px]]
     across = road_points(road_homography(camera_matrix, vp, 1.0), x_at)[:, 0]  # on a road 1 m down
     if not across[1] > across[0]:

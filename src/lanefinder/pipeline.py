@@ -271,9 +271,11 @@ class LaneFinder:
         ``selfcal.stills``, a still whose lane does not read as curving tighter than
         ``selfcal.still_min_radius_m`` (or shows no lane) with the config's set-up is looked at as a one-frame video
         (:func:`lanefinder.selfcal.still_setup`), and found again with its own set-up when that
-        gives one.  That set-up stays in use (:meth:`birdseye` gives it, to draw the result)
-        until the next still; call :meth:`reset` and :meth:`use_birdseye` before using the
-        finder for a video.
+        gives one.  When it gives none and ``selfcal.still_lines``, the still is found again
+        with the set-up the lines found in it give (:func:`lanefinder.selfcal.lines_setup`),
+        kept when that shows a lane whose lines are no less sure.  That set-up stays in use
+        (:meth:`birdseye` gives it, to draw the result) until the next still; call :meth:`reset`
+        and :meth:`use_birdseye` before using the finder for a video.
 
         Parameters
         ----------
@@ -284,7 +286,8 @@ class LaneFinder:
         -------
         LaneResult
             As :meth:`process`; ``setup`` is ``estimated`` when the still's own set-up was used,
-            ``default`` when it gave none, ``config`` when the config has a set-up.
+            ``lines`` when the set-up its lines give was, ``default`` when neither gave one,
+            ``config`` when the config has a set-up.
 
         Raises
         ------
@@ -308,7 +311,8 @@ class LaneFinder:
             self._config_birdseye = self.birdseye(size)
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
-        keep, self.keep_debug = self.keep_debug, True  # the lines' pixels, for lines_setup
+        keep = self.keep_debug
+        self.keep_debug = keep or self.config.selfcal.still_lines  # the lines' pixels, for lines_setup
         try:
             first = replace(self.process(frame), setup="default")
         finally:
@@ -325,7 +329,7 @@ class LaneFinder:
             return replace(self.process(frame), setup="estimated")
         if not self.config.selfcal.still_lines or search is None:
             return first
-        from_lines = lines_setup(self._config_birdseye, search.left, search.right)
+        from_lines = lines_setup(self._config_birdseye, search.left, search.right, self.config)
         if from_lines is None:
             return first
         self.use_birdseye(from_lines)

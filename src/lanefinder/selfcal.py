@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, road_from_lines, view_from_estimate
-from .birdseye import BirdsEye, make_birdseye, setup_of
+from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
 from .camera import CameraModel
 from .config import LANE_WIDTH_M, BirdseyeConfig, Config
 from .errors import LaneFinderError
@@ -265,14 +265,19 @@ LINES_MAX_SHIFT = 1 / 6
 LINES_MIN_SHIFT = 1 / 72
 
 
-def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels) -> BirdsEye | None:
+def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
+                config: Config | None = None) -> BirdsEye | None:
     """Give a still's set-up from the near parts of the lines found in it with another set-up.
 
     For a still that gives no set-up of its own (:func:`still_setup`: a curving road, say),
     the two lines' pixels in the nearest ``LINES_NEAR_FRACTION`` of the view are mapped back
-    to the frame, and the road read from where their straight fits meet and how far apart they
-    are (:func:`lanefinder.autosetup.road_from_lines`).  With a set-up that pitches the road
-    wrong, the lines splay or close in the view; the set-up returned makes them parallel.
+    to the frame, and the horizon read from where their straight fits meet and the camera
+    height from how far apart they are (:func:`lanefinder.autosetup.road_from_lines`).  With a
+    set-up that pitches the road wrong, the lines splay or close in the view; the set-up
+    returned makes them parallel.  The vanishing point's column (the camera's yaw) stays that
+    of ``current``: on a curve the lines' own column takes the curve's heading, which would put
+    the car 0.4-0.7 m off on a curve of R 250 m.  The set-up must pass the gates of a still's
+    own set-up (``selfcal.still_height_m``, ``selfcal.still_max_car_m``).
 
     Parameters
     ----------
@@ -280,14 +285,17 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels) -> Birds
         The set-up the lines were found with.
     left, right : LinePixels
         Their pixels in its view.
+    config : Config, optional
+        The gates (``selfcal``); the defaults without one.
 
     Returns
     -------
     BirdsEye or None
         The set-up the lines give, or None when they give none (too few pixels near the car,
-        lines that do not meet above the car, or a horizon more than ``LINES_MAX_SHIFT`` of the
-        frame's height from the one in use), or when it is too close to ``current`` to tell
-        from it (the horizon within ``LINES_MIN_SHIFT`` of the frame's height).
+        lines that do not meet above them, a horizon more than ``LINES_MAX_SHIFT`` of the
+        frame's height from the one in use, a camera height outside ``still_height_m``, or the
+        car moved by more than ``still_max_car_m``), or when it is too close to ``current`` to
+        tell from it (the horizon within ``LINES_MIN_SHIFT`` of the frame's height).
 
     Examples
     --------
@@ -297,10 +305,11 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels) -> Birds
     >>> y = np.arange(100.0, 300.0)
     >>> lines_setup(be, LinePixels(x=np.full(200, 125.0), y=y), LinePixels(x=np.full(200, 275.0), y=y)) is None
     True
-    >>> new = lines_setup(be, LinePixels(x=125 - (y - 100) / 8, y=y), LinePixels(x=275 + (y - 100) / 8, y=y))
+    >>> new = lines_setup(be, LinePixels(x=130 - (y - 100) / 16, y=y), LinePixels(x=270 + (y - 100) / 16, y=y))
     >>> round(setup_of(new)[0] - setup_of(be)[0]), round(setup_of(new)[1] / setup_of(be)[1], 2)
-    (17, 0.7)
+    (11, 0.87)
     """
+    cfg = (config or Config()).selfcal
     h_view = current.size[1]
     pts = []
     for line in (left, right):
@@ -310,12 +319,16 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels) -> Birds
         pts.append(current.to_undistorted(np.column_stack([line.x[near], line.y[near]])))
     opts = SetupOptions(lane_width_m=LANE_WIDTH_M)
     w, h = current.frame_size
-    k = current.camera.camera_matrix
     try:
-        est = road_from_lines(pts[0], pts[1], k, opts.bottom_fraction * (h - 1), opts.lane_width_m)
+        est = road_from_lines(pts[0], pts[1], current.camera.camera_matrix, opts.bottom_fraction * (h - 1),
+                              opts.lane_width_m, vp_x=src_vanishing_point(current.src_px)[0])
         if not LINES_MIN_SHIFT * h < abs(est.vp[1] - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
             return None
         b, _, _ = view_from_estimate(est, (w, h), opts)
     except LaneFinderError:
         return None
-    return make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+    new = make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+    low, high = cfg.still_height_m
+    if not low <= est.height_m <= high or abs(setup_error(current, new)["car_m"]) > cfg.still_max_car_m:
+        return None
+    return new
