@@ -57,7 +57,10 @@ def video_frames(mod, path):
     """A video's frames for the set-up (the version before took a camera it did not need)."""
     if mod is after:
         return after.straight_frames_from_video(path, after.SetupOptions())
-    return mod.straight_frames_from_video(path, None, mod.SetupOptions())
+    try:
+        return mod.straight_frames_from_video(path, mod.SetupOptions())
+    except TypeError:  # versions that also took a camera
+        return mod.straight_frames_from_video(path, None, mod.SetupOptions())
 
 
 def row(name, mod, frames, camera, truth_be, truth_vp, size, **opts):

@@ -160,3 +160,23 @@ def test_auto_setup_meets_the_project_video_bars(tmp_path, test_images, udacity_
     assert st["width_std_m"] < 0.15  # measured 0.134 m
     first = sorted(r["radius_m"] for r in rows if r["time_s"] < 10)
     assert 500 < first[len(first) // 2] < 1500
+
+
+def test_a_seam_running_under_the_car_is_not_taken_for_an_ego_line():
+    import cv2
+
+    from lanefinder.autosetup import SetupOptions, frame_lines
+
+    img = np.full((720, 1280, 3), 90, np.uint8)
+    img[:400] = (200, 170, 140)
+    vp = (640, 400)
+    cv2.line(img, vp, (300, 719), (230, 230, 230), 6)  # the left line, solid
+    cv2.line(img, vp, (690, 719), (230, 230, 230), 4)  # a bright seam under the camera, solid
+    for a, b in ((0.05, 0.12), (0.25, 0.32), (0.45, 0.52)):  # the right line: three far dashes only
+        cv2.line(img, (round(640 + 360 * a), round(400 + 319 * a)), (round(640 + 360 * b), round(400 + 319 * b)),
+                 (230, 230, 230), 8)
+    # The bottom row (674): the left line crosses it at 348, the seam at 682, the right line at 949.
+    assert frame_lines(img, SetupOptions(min_line_offset=0.0)).right_bottom_x == pytest.approx(682, abs=5)
+    fl = frame_lines(img, SetupOptions())
+    # Measured: 348 and 958 (the right ray is read from three far dashes: extended, 9 px off).
+    assert fl.left_bottom_x == pytest.approx(348, abs=5) and fl.right_bottom_x == pytest.approx(949, abs=15)

@@ -162,7 +162,7 @@ class SelfCalibrator:
             The set-up to use from now on, or None to keep the current one.
         """
         self._seen += 1
-        fast = self.state.source == "default" and self._seen <= self.cfg.fast_frames
+        fast = self.state.quality is None and self._seen <= self.cfg.fast_frames  # no estimate made yet
         every = self.cfg.every_frames if fast else self.cfg.refine_every_frames
         if (self._seen - 1) % every:
             return None
@@ -174,7 +174,7 @@ class SelfCalibrator:
             return None
         self._frames.append((ev, cv2.cvtColor(und, cv2.COLOR_BGR2GRAY)))
         self._new += 1
-        need = self.cfg.min_frames if self.state.source == "default" else max(1, self.cfg.min_frames // 2)
+        need = self.cfg.min_frames if self.state.quality is None else max(1, self.cfg.min_frames // 2)
         if len(self._frames) < self.cfg.min_frames or self._new < need:
             return None
         self._new = 0
@@ -202,7 +202,9 @@ class SelfCalibrator:
         updates = self.state.updates + differs
         use = be if differs else self.current
         horizon, height, focal = setup_of(use)
-        self.state = SetupState(source="estimated", frames=quality.frames_used, updates=updates,
+        # An estimate not sure enough neither replaces nor confirms the set-up: the source stays.
+        source = "estimated" if sure_enough else self.state.source
+        self.state = SetupState(source=source, frames=quality.frames_used, updates=updates,
                                 horizon_px=horizon, height_m=height, focal_px=focal, quality=quality)
         if differs:
             self.current = be
