@@ -1,7 +1,7 @@
 """Measure lanefinder against synthetic ground truth, scenario by scenario (`make eval`).
 
     python scripts/eval_synthetic.py [--frames 50] [--seeds 101 102] [--out output/eval] [--only NAME ...]
-                                     [--fixed] [--config CFG] [--reuse]
+                                     [--fixed] [--config CFG] [--reuse] [--self-calibrate]
 
 For each scenario and seed: render the sequence (lanefinder.synth), run the video job with the
 sequence's exact bird's-eye set-up (telemetry only), and score all the seeds' frames together

@@ -287,7 +287,7 @@ class LaneFinder:
         LaneResult
             As :meth:`process`; ``setup`` is ``estimated`` when the still's own set-up was used,
             ``lines`` when the set-up its lines give was, ``default`` when neither gave one,
-            ``config`` when the config has a set-up.
+            ``config`` when the config has a set-up or ``selfcal.stills`` is off.
 
         Raises
         ------
