@@ -23,7 +23,7 @@ import numpy as np
 from .autosetup import SetupOptions, SetupQuality, estimate_road, frame_evidence, road_from_lines, view_from_estimate
 from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
 from .camera import CameraModel
-from .config import LANE_WIDTH_M, BirdseyeConfig, Config
+from .config import LANE_WIDTH_M, BirdseyeConfig, Config, SelfCalConfig
 from .errors import LaneFinderError
 from .evaluate import setup_error
 from .search import LinePixels
@@ -248,11 +248,13 @@ def still_setup(frame: np.ndarray, config: Config, current: BirdsEye) -> BirdsEy
     new = cal.offer(frame)
     if new is None:
         return None
-    low, high = config.selfcal.still_height_m
-    moved_m = abs(setup_error(current, new)["car_m"])
-    if not low <= cal.state.height_m <= high or moved_m > config.selfcal.still_max_car_m:
-        return None
-    return new
+    return new if _plausible_for_a_still(current, new, cal.state.height_m, config.selfcal) else None
+
+
+def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cfg: SelfCalConfig) -> bool:
+    """Tell whether a still's set-up passes the still gates: the camera's height, the car's move."""
+    low, high = cfg.still_height_m
+    return low <= height_m <= high and not abs(setup_error(current, new)["car_m"]) > cfg.still_max_car_m
 
 
 #: The near part of the view whose line pixels :func:`lines_setup` reads the road from (a
@@ -319,7 +321,7 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
         if np.count_nonzero(near) < 10:
             return None
         pts.append(current.to_undistorted(np.column_stack([line.x[near], line.y[near]])))
-    opts = SetupOptions(lane_width_m=LANE_WIDTH_M)
+    opts = SetupOptions()
     w, h = current.frame_size
     try:
         est = road_from_lines(pts[0], pts[1], current.camera.camera_matrix, opts.bottom_fraction * (h - 1),
@@ -330,7 +332,4 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
     except LaneFinderError:
         return None
     new = make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
-    low, high = cfg.still_height_m
-    if not low <= est.height_m <= high or abs(setup_error(current, new)["car_m"]) > cfg.still_max_car_m:
-        return None
-    return new
+    return new if _plausible_for_a_still(current, new, est.height_m, cfg) else None
