@@ -765,6 +765,17 @@ class SelfCalConfig(_Section):
         A still that gives no set-up of its own (a curving road, say) is found again with the
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
         that result is kept when it has a lane and its lines are no less sure.
+    unsure_parallel : float
+        While a video runs on the default set-up, before its first sure estimate, ``fit.parallel``
+        is this: a camera mounted otherwise than the default's makes a straight lane's lines
+        converge or part in the bird's-eye view, and pulling them parallel bends them ...
+    unsure_parallel_diff_m : float
+        ... ``tracking.max_parallel_diff_m`` is this, m ...
+    unsure_curvature_diff : float
+        ... and ``tracking.max_curvature_diff`` is this, 1/m ...
+    unsure_radius_m : float
+        ... unless the last frame's lane curved tighter than this, m (a sharp curve's lines keep
+        their shared shape: they lose more without it than a wrong set-up costs).
 
     Examples
     --------
@@ -790,6 +801,10 @@ class SelfCalConfig(_Section):
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
     still_lines: bool = True
+    unsure_parallel: Fraction = 0.0
+    unsure_parallel_diff_m: PositiveFloat = 5.0
+    unsure_curvature_diff: PositiveFloat = 0.008
+    unsure_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
 
     @model_validator(mode="after")
     def _check_heights(self) -> SelfCalConfig:

@@ -173,6 +173,8 @@ class LaneFinder:
         self._farview: tuple[BirdsEye, FarView | None] | None = None
         self._far_cfg: tuple[Config, ThresholdConfig] | None = None
         self._config_birdseye: BirdsEye | None = None
+        self._measurers: tuple[Measurer, Measurer] | None = None
+        self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
         """Return the (cached) bird's-eye set-up for a frame size.
@@ -198,8 +200,36 @@ class LaneFinder:
                 self.camera = camera_from_config(self.config, frame_size)
             be = birdseye_from_config(self.config, self.camera, tuple(frame_size))
             self._birdseye = be
-            self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
+            self._build_measurer(be)
         return be
+
+    def _unsure(self) -> bool:
+        """Tell whether a self-calibrating run is on the default set-up, still searching for a sure estimate."""
+        return self.self_calibrate and (self.selfcal is None or self.selfcal.searching)
+
+    def _build_measurer(self, be: BirdsEye) -> None:
+        """Build the measuring settings for a set-up: as configured, and relaxed as ``selfcal.unsure_*`` say."""
+        cfg, sc = self.config, self.config.selfcal
+        scale = Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px)
+        relaxed = cfg.model_copy(update={
+            "fit": cfg.fit.model_copy(update={"parallel": sc.unsure_parallel}),
+            "tracking": cfg.tracking.model_copy(update={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
+                                                        "max_curvature_diff": sc.unsure_curvature_diff})})
+        self._measurers = (Measurer.build(cfg, scale), Measurer.build(relaxed, scale))
+        self._measurer = self._measurers[0]
+
+    def _pick_measurer(self) -> None:
+        """Measure this frame relaxed while unsure of the set-up on a road the track reads as straight.
+
+        A camera mounted otherwise than the default set-up's makes a straight lane's lines
+        converge or part in the bird's-eye view; the lane checks that assume parallel lines
+        then refuse the true lines, and the fit's pull towards a shared shape bends them.  On a
+        curving road the shared shape is worth more than the set-up's error (synthetic sharp
+        curves of unknown mounts, and the harder challenge video, lose without it).
+        """
+        relaxed = self._unsure() and not (
+            abs(self._curvature_per_m) * self.config.selfcal.unsure_radius_m > 1)  # NaN: relaxed
+        self._measurer = self._measurers[relaxed]
 
     @property
     def measurer(self) -> Measurer:
@@ -211,6 +241,7 @@ class LaneFinder:
     def reset(self) -> None:
         """Forget the track (start of a new clip, or independent images)."""
         self.track = Track()
+        self._curvature_per_m = math.nan
 
     def use_birdseye(self, be: BirdsEye) -> None:
         """Put another set-up in use for frames of its size.
@@ -225,7 +256,7 @@ class LaneFinder:
             The new set-up (from :mod:`lanefinder.selfcal`, say).
         """
         self._birdseye = be
-        self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
+        self._build_measurer(be)
         self._farview = None
 
     def process(self, frame: np.ndarray) -> LaneResult:
@@ -250,9 +281,12 @@ class LaneFinder:
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
+        if self.self_calibrate:
+            self._pick_measurer()
         result = self.extend_far(frame, self.process_binary(binary, be, view), be)
         if not self.self_calibrate:
             return result
+        self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
         new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)

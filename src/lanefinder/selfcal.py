@@ -137,6 +137,11 @@ class SelfCalibrator:
         horizon, height, focal = setup_of(current)
         self.state = SetupState(source="default", horizon_px=horizon, height_m=height, focal_px=focal)
 
+    @property
+    def searching(self) -> bool:
+        """True while there is no sure estimate and the first ``fast_frames`` frames are looked at closely."""
+        return self.state.source == "default" and self._seen <= self.cfg.fast_frames
+
     def _prepare(self, frame: np.ndarray) -> np.ndarray:
         img = frame
         if self.work != (frame.shape[1], frame.shape[0]):
