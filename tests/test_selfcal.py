@@ -225,20 +225,35 @@ def test_a_video_of_an_unknown_mount_is_seen_right_within_half_a_second(pitch, y
     assert finder.selfcal.state.height_m == pytest.approx(height, rel=0.05)
 
 
-def test_while_unsure_of_the_setup_lines_are_not_pulled_parallel_on_a_road_read_as_straight(test_images):
-    image = test_images["straight_lines1"]
-    cfg = Config()
-    plain, calibrating = LaneFinder(cfg), LaneFinder(cfg, self_calibrate=True)
-    plain.process(image)
-    calibrating.process(image)
-    assert plain.measurer.fit.parallel == cfg.fit.parallel
-    # The first frame was measured relaxed (no estimate yet, no curve read before it) ...
-    assert calibrating.measurer.fit.parallel == cfg.selfcal.unsure_parallel
-    assert calibrating.measurer.rules.cfg.max_parallel_diff_m == cfg.selfcal.unsure_parallel_diff_m
-    # ... and a frame after one read as a sharp curve keeps the shared shape and the usual checks.
-    calibrating._curvature_per_m = 2 / cfg.selfcal.unsure_radius_m
-    calibrating.process(image)
-    assert calibrating.measurer.fit.parallel == cfg.fit.parallel
+def test_while_unsure_of_the_setup_lines_are_not_pulled_parallel_on_a_road_read_as_straight(
+        test_images, monkeypatch):
+    import lanefinder.pipeline as pipeline
+
+    used = []
+    real = pipeline.measure
+    monkeypatch.setattr(pipeline, "measure", lambda *a, **k: used.append(a[3]) or real(*a, **k))
+    image, cfg = test_images["straight_lines1"], Config()
+
+    def relaxed(finder: LaneFinder, n: int) -> list[bool]:
+        used.clear()
+        for _ in range(n):
+            finder.process(image)
+        return [m.fit.parallel == cfg.selfcal.unsure_parallel and m.rules.cfg.max_parallel_diff_m
+                == cfg.selfcal.unsure_parallel_diff_m and m.rules.cfg.max_curvature_diff
+                == cfg.selfcal.unsure_curvature_diff for m in used]
+
+    assert relaxed(LaneFinder(cfg, self_calibrate=True), 2) == [True, True]  # no estimate yet
+    assert relaxed(LaneFinder(cfg), 2) == [False, False]  # not self-calibrating
+    own = Config.model_validate({"birdseye": {"xm_per_px": 0.025}})  # a set-up of its own
+    assert relaxed(LaneFinder(own, self_calibrate=True), 2) == [False, False]
+    brief = Config.model_validate({"selfcal": {"fast_frames": 3, "min_frames": 1000}})
+    assert relaxed(LaneFinder(brief, self_calibrate=True), 5) == [True, True, True, False, False]
+    finder = LaneFinder(cfg, self_calibrate=True)
+    finder.process(image)
+    assert finder.measurer.fit.parallel == cfg.fit.parallel  # the public settings stay as configured
+    # After a frame read as a sharp curve, the next keeps the shared shape and the usual checks.
+    finder._curvature_per_m = 2 / cfg.selfcal.unsure_radius_m
+    assert relaxed(finder, 1) == [False]
 
 
 @pytest.mark.slow

@@ -766,16 +766,18 @@ class SelfCalConfig(_Section):
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
         that result is kept when it has a lane and its lines are no less sure.
     unsure_parallel : float
-        While a video runs on the default set-up, before its first sure estimate, ``fit.parallel``
-        is this: a camera mounted otherwise than the default's makes a straight lane's lines
-        converge or part in the bird's-eye view, and pulling them parallel bends them ...
+        While a self-calibrating video runs on the default set-up, before its first sure estimate
+        and within its first ``fast_frames`` frames, ``fit.parallel`` is this: a camera mounted
+        otherwise than the default's makes a straight lane's lines converge or part in the
+        bird's-eye view, and pulling them parallel bends them ...
     unsure_parallel_diff_m : float
         ... ``tracking.max_parallel_diff_m`` is this, m ...
     unsure_curvature_diff : float
         ... and ``tracking.max_curvature_diff`` is this, 1/m ...
     unsure_radius_m : float
         ... unless the last frame's lane curved tighter than this, m (a sharp curve's lines keep
-        their shared shape: they lose more without it than a wrong set-up costs).
+        their shared shape: they lose more without it than a wrong set-up costs; 0: relaxed on
+        every such frame).
 
     Examples
     --------

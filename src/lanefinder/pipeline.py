@@ -140,7 +140,7 @@ class LaneFinder:
     self_calibrate : bool
         Estimate the set-up from the frames while they come (:mod:`lanefinder.selfcal`; for
         the frames of one video); :func:`lanefinder.selfcal.wanted` tells when a config asks
-        for it.
+        for it.  Until the first sure estimate, frames are measured as ``selfcal.unsure_*`` say.
 
     Attributes
     ----------
@@ -173,7 +173,7 @@ class LaneFinder:
         self._farview: tuple[BirdsEye, FarView | None] | None = None
         self._far_cfg: tuple[Config, ThresholdConfig] | None = None
         self._config_birdseye: BirdsEye | None = None
-        self._measurers: tuple[Measurer, Measurer] | None = None
+        self._relaxed_measurer: Measurer | None = None
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -205,7 +205,9 @@ class LaneFinder:
 
     def _unsure(self) -> bool:
         """Tell whether a self-calibrating run is on the default set-up, still searching for a sure estimate."""
-        return self.self_calibrate and (self.selfcal is None or self.selfcal.searching)
+        if not (self.self_calibrate and selfcal_wanted(self.config)):
+            return False
+        return self.config.selfcal.fast_frames > 0 if self.selfcal is None else self.selfcal.searching
 
     def _build_measurer(self, be: BirdsEye) -> None:
         """Build the measuring settings for a set-up: as configured, and relaxed as ``selfcal.unsure_*`` say."""
@@ -215,11 +217,11 @@ class LaneFinder:
             "fit": cfg.fit.model_copy(update={"parallel": sc.unsure_parallel}),
             "tracking": cfg.tracking.model_copy(update={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
                                                         "max_curvature_diff": sc.unsure_curvature_diff})})
-        self._measurers = (Measurer.build(cfg, scale), Measurer.build(relaxed, scale))
-        self._measurer = self._measurers[0]
+        self._measurer = Measurer.build(cfg, scale)
+        self._relaxed_measurer = Measurer.build(relaxed, scale)
 
-    def _pick_measurer(self) -> None:
-        """Measure this frame relaxed while unsure of the set-up on a road the track reads as straight.
+    def _frame_measurer(self) -> Measurer:
+        """Give the settings to measure this frame with: relaxed while unsure of the set-up on a road read as straight.
 
         A camera mounted otherwise than the default set-up's makes a straight lane's lines
         converge or part in the bird's-eye view; the lane checks that assume parallel lines
@@ -227,13 +229,18 @@ class LaneFinder:
         curving road the shared shape is worth more than the set-up's error (synthetic sharp
         curves of unknown mounts, and the harder challenge video, lose without it).
         """
-        relaxed = self._unsure() and not (
-            abs(self._curvature_per_m) * self.config.selfcal.unsure_radius_m > 1)  # NaN: relaxed
-        self._measurer = self._measurers[relaxed]
+        radius = self.config.selfcal.unsure_radius_m
+        if self._unsure() and not abs(self._curvature_per_m) * radius > 1:  # NaN (no lane read): relaxed
+            return self._relaxed_measurer
+        return self.measurer
 
     @property
     def measurer(self) -> Measurer:
-        """The measuring settings in pixels for the current set-up (after the first frame)."""
+        """The measuring settings in pixels for the current set-up (after the first frame), as configured.
+
+        While a self-calibrating run is unsure of its set-up, :meth:`process` measures frames
+        of a road read as straight with these relaxed as ``selfcal.unsure_*`` say.
+        """
         if self._measurer is None:
             raise LaneFinderError("no frame size yet: call birdseye() or process() first")
         return self._measurer
@@ -281,14 +288,13 @@ class LaneFinder:
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
-        if self.self_calibrate:
-            self._pick_measurer()
-        result = self.extend_far(frame, self.process_binary(binary, be, view), be)
         if not self.self_calibrate:
-            return result
-        self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
+            return self.extend_far(frame, self.process_binary(binary, be, view), be)
         if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
+            self._curvature_per_m = math.nan
+        result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
+        self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)
         if new is not None:
             # From the next frame on, and searched for afresh: lines tracked in the old view would be
@@ -430,7 +436,8 @@ class LaneFinder:
                                       range_m=far.range_m if line.found else line.range_m)
         return replace(result, **lines) if lines else result
 
-    def process_binary(self, binary: np.ndarray, be: BirdsEye, view: np.ndarray | None = None) -> LaneResult:
+    def process_binary(self, binary: np.ndarray, be: BirdsEye, view: np.ndarray | None = None,
+                       measurer: Measurer | None = None) -> LaneResult:
         """Measure and track on a bird's-eye binary.
 
         Parameters
@@ -442,6 +449,8 @@ class LaneFinder:
         view : (H, W, 3) uint8 ndarray, optional
             The bird's-eye colour image (BGR); with it, a yellow line is only taken as the side
             of the lane that ``tracking.yellow_line_side`` allows.
+        measurer : Measurer, optional
+            The settings to measure with; by default :attr:`measurer`.
 
         Returns
         -------
@@ -449,7 +458,7 @@ class LaneFinder:
             The frame's result.
         """
         self.birdseye(be.frame_size)
-        m = self.measurer
+        m = measurer or self.measurer
         measured = measure(binary, view, self.track, m, Pixels.of(binary))
         self.track, verdict = step(self.track, measured.lines, measured.blind, m.rules)
         debug = {"binary": binary, "search": measured.search} if self.keep_debug else {}

@@ -139,8 +139,8 @@ class SelfCalibrator:
 
     @property
     def searching(self) -> bool:
-        """True while there is no sure estimate and the first ``fast_frames`` frames are looked at closely."""
-        return self.state.source == "default" and self._seen <= self.cfg.fast_frames
+        """True while there is no sure estimate and the next frame is among the first ``fast_frames``."""
+        return self.state.source == "default" and self._seen < self.cfg.fast_frames
 
     def _prepare(self, frame: np.ndarray) -> np.ndarray:
         img = frame
