@@ -282,3 +282,16 @@ def test_before_its_first_estimate_a_straight_road_of_an_unknown_mount_is_drawn_
     # checks, the default set-up's lines bend away from the paint by 105 px at the car.
     assert worst["relaxed"] < 3
     assert worst["strict"] > 50
+
+
+def test_the_stages_of_a_still_are_drawn_with_the_setup_it_was_found_with(test_images):
+    from lanefinder.render import annotate
+    from lanefinder.stages import stage_images
+
+    finder, image = LaneFinder(), test_images["test4"]
+    result = finder.process_still(image)
+    assert result.setup == "estimated"
+    images = stage_images(image, finder)
+    own = finder.birdseye((1280, 720))
+    assert np.array_equal(images["6_final"], annotate(image, result, own, finder.config.render))
+    assert not np.array_equal(own.src_px, LaneFinder().birdseye((1280, 720)).src_px)

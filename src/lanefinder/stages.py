@@ -51,7 +51,8 @@ def inspect_frame(frame: np.ndarray, finder: LaneFinder) -> tuple[dict[str, np.n
     frame : (H, W, 3) uint8 ndarray
         The original frame, BGR.
     finder : LaneFinder
-        Gives the configuration and the camera.
+        Gives the configuration, the camera and the set-up in use (after
+        :meth:`~lanefinder.pipeline.LaneFinder.process_still`, the still's own).
 
     Returns
     -------
@@ -68,9 +69,11 @@ def inspect_frame(frame: np.ndarray, finder: LaneFinder) -> tuple[dict[str, np.n
     >>> len(images), result.left.found
     (6, True)
     """
+    size = (frame.shape[1], frame.shape[0])
     debug = LaneFinder(finder.config, camera=finder.camera, keep_debug=True)
+    debug.use_birdseye(finder.birdseye(size))  # the set-up in use: a still's own, after process_still
     result = debug.process(frame)
-    be = debug.birdseye((frame.shape[1], frame.shape[0]))
+    be = debug.birdseye(size)
     undist = be.camera.undistort(frame)
     marked = undist.copy()
     cv2.polylines(marked, [np.round(be.src_px).astype(np.int32)], True, (0, 0, 255), 2, cv2.LINE_AA)
