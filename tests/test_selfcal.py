@@ -216,7 +216,7 @@ def test_a_video_of_an_unknown_mount_is_seen_right_within_half_a_second(pitch, y
     results = [finder.process(r.render(i / 25)) for i in range(50)]
     first = next(i for i, res in enumerate(results) if res.setup == "estimated")
     late = results[20:]
-    # Measured: the estimate from frame 6 on, then both lines seen on every frame and the lane
+    # Measured: the estimate in use from frame 7 on, then both lines seen on every frame and the lane
     # read 3.70 m wide.  Before (one frame in 4, 8 accepted, the track kept across the change):
     # from frame 28, and both lines seen on 93% and 77% of frames 20-49.
     assert first <= 10

@@ -295,6 +295,7 @@ class LaneFinder:
             self._curvature_per_m = math.nan
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
+        used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)
         new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)
         if new is not None:
             # From the next frame on, and searched for afresh: lines tracked in the old view would be
@@ -302,7 +303,7 @@ class LaneFinder:
             # a wrong lane width on synthetic footage of unknown mounts).
             self.use_birdseye(new)
             self.reset()
-        return replace(result, setup=self.selfcal.state.source)
+        return replace(result, setup=used)
 
     def process_still(self, frame: np.ndarray) -> LaneResult:
         """Find the lane in a single still, blind: no track, and the still's own set-up when it gives one.
