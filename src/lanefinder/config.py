@@ -733,7 +733,8 @@ class SelfCalConfig(_Section):
     window_frames : int
         The most recent accepted frames the estimate rests on.
     work_width_px : int
-        Frames are looked at shrunk to this width.
+        Frames are looked at shrunk to this width (960: a look costs about half the line-segment
+        detection of 1280, and estimates as good on synthetic unknown mounts).
     change_xm_pct, change_ym_pct : float
         A new estimate is taken when it reads distances across / along differently by more
         than this, percent ...
@@ -758,6 +759,9 @@ class SelfCalConfig(_Section):
     still_max_car_m : float
         ... and it places the car at most this far from where the set-up in use does, m (one
         frame cannot tell a car off its lane's centre from a camera turned).
+    still_work_width_px : int
+        A still is looked at shrunk to this width (one frame has no others to outvote a noisy
+        reading: at 960, test1.jpg, a curve, read a horizon 23 px off and was taken).
     still_min_radius_m : float
         A still whose lane the config's set-up reads as curving tighter than this is not looked
         at (one frame of a curving road can mislead the estimate), m (0: every still is).
@@ -791,7 +795,7 @@ class SelfCalConfig(_Section):
     refine_every_frames: Annotated[int, Field(ge=1, le=100_000)] = 50
     min_frames: Annotated[int, Field(ge=1, le=1000)] = 4
     window_frames: Annotated[int, Field(ge=1, le=1000)] = 40
-    work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
+    work_width_px: Annotated[int, Field(ge=160, le=4096)] = 960
     change_xm_pct: Annotated[float, Field(gt=0, le=100)] = 3.0
     change_ym_pct: Annotated[float, Field(gt=0, le=100)] = 6.0
     change_car_m: Annotated[float, Field(gt=0, le=5)] = 0.08
@@ -802,6 +806,7 @@ class SelfCalConfig(_Section):
     still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.8)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
+    still_work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
     still_lines: bool = True
     unsure_parallel: Fraction = 0.0
     unsure_parallel_diff_m: PositiveFloat = 5.0

@@ -248,7 +248,8 @@ def still_setup(frame: np.ndarray, config: Config, current: BirdsEye) -> BirdsEy
     >>> still_setup(np.zeros((720, 1280, 3), np.uint8), Config(), be) is None
     True
     """
-    one = config.selfcal.model_copy(update={"min_frames": 1, "every_frames": 1, "fast_frames": 1})
+    one = config.selfcal.model_copy(update={"min_frames": 1, "every_frames": 1, "fast_frames": 1,
+                                            "work_width_px": config.selfcal.still_work_width_px})
     cal = SelfCalibrator(config.model_copy(update={"selfcal": one}), current.camera, current)
     new = cal.offer(frame)
     if new is None:
