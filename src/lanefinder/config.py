@@ -733,7 +733,7 @@ class SelfCalConfig(_Section):
     window_frames : int
         The most recent accepted frames the estimate rests on.
     work_width_px : int
-        Frames are looked at shrunk to this width (960: a look costs about half the line-segment
+        Frames are looked at no wider than this, px (960: a look costs about half the line-segment
         detection of 1280, and estimates as good on synthetic unknown mounts).
     change_xm_pct, change_ym_pct : float
         A new estimate is taken when it reads distances across / along differently by more
@@ -759,12 +759,12 @@ class SelfCalConfig(_Section):
     still_max_car_m : float
         ... and it places the car at most this far from where the set-up in use does, m (one
         frame cannot tell a car off its lane's centre from a camera turned).
-    still_work_width_px : int
-        A still is looked at shrunk to this width (one frame has no others to outvote a noisy
-        reading: at 960, test1.jpg, a curve, read a horizon 23 px off and was taken).
     still_min_radius_m : float
         A still whose lane the config's set-up reads as curving tighter than this is not looked
         at (one frame of a curving road can mislead the estimate), m (0: every still is).
+    still_work_width_px : int
+        A still is looked at no wider than this, px (one frame has no others to outvote a noisy
+        reading: at 960, test1.jpg, a curve, read a horizon 23 px off and was taken).
     still_lines : bool
         A still that gives no set-up of its own (a curving road, say) is found again with the
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and

@@ -277,7 +277,9 @@ class LaneFinder:
         Returns
         -------
         LaneResult
-            The lines, the lane numbers (m, 1/m) and the tracker's state.
+            The lines, the lane numbers (m, 1/m) and the tracker's state.  Its lines are in the
+            set-up :meth:`birdseye` gave before the call: self-calibration may put a new one in
+            use for the next frame, so take ``birdseye()`` before ``process()`` to map them.
 
         Raises
         ------
