@@ -73,7 +73,8 @@ def test_online_self_calibration_converges_within_five_seconds():
         res = finder.process(r.render(i / fps))
         if res.setup != "default":
             widths.append(res.width_m)
-    assert finder.selfcal.state.source == "estimated" and finder.selfcal.state.updates >= 1
+    # (The first frame's own set-up was near enough that the estimate confirmed it: no update.)
+    assert finder.selfcal.state.source == "estimated"
     # The default set-up (another camera's) misreads this road (measured: widths by 17.8%, distances
     # ahead by 404%, as the estimate reads it); the estimate reads the lane right.
     err = setup_error(default_be, finder.birdseye(size))
@@ -264,7 +265,7 @@ def test_before_its_first_estimate_a_straight_road_of_an_unknown_mount_is_drawn_
     r = Renderer(udacity_camera(), Mount(height_m=1.16, pitch_deg=-3.0, yaw_deg=-1.0),
                  Scenario("straight", width_m=(3.7, 0.0)), seed=7)
     exact = LaneFinder(Config.model_validate({"birdseye": r.birdseye_config()}))
-    never = {"min_frames": 1000}  # no estimate: every frame is seen with the default set-up
+    never = {"min_frames": 1000, "first_frame": False}  # every frame is seen with the default set-up
     strict = {**never, "unsure_parallel": 1.0, "unsure_parallel_diff_m": 0.9, "unsure_curvature_diff": 0.004}
     worst = {}
     for name, selfcal in (("relaxed", never), ("strict", strict)):
@@ -295,3 +296,21 @@ def test_the_stages_of_a_still_are_drawn_with_the_setup_it_was_found_with(test_i
     own = finder.birdseye((1280, 720))
     assert np.array_equal(images["6_final"], annotate(image, result, own, finder.config.render))
     assert not np.array_equal(own.src_px, LaneFinder().birdseye((1280, 720)).src_px)
+
+
+@pytest.mark.slow
+def test_a_video_of_an_unknown_mount_is_seen_with_its_first_frame_s_setup_until_the_estimate():
+    from lanefinder.camera import udacity_camera
+
+    r = Renderer(udacity_camera(), Mount(height_m=1.5, pitch_deg=1.0), Scenario("straight", width_m=(3.7, 0.0)),
+                 seed=7)
+    runs = {}
+    for first_frame in (True, False):
+        finder = LaneFinder(Config.model_validate({"selfcal": {"first_frame": first_frame}}), self_calibrate=True)
+        runs[first_frame] = [finder.process(r.render(i / 25)) for i in range(7)]  # before any estimate
+    # Measured: from the first frame the lane 3.65-3.77 m wide; with the default set-up no lane on
+    # frames 0-1, then 2.85-3.70 m.
+    assert [res.setup for res in runs[True]] == ["first-frame"] * 7
+    assert all(res.lane_found and abs(res.width_m - 3.7) < 0.12 for res in runs[True])
+    assert [res.setup for res in runs[False]] == ["default"] * 7
+    assert not runs[False][0].lane_found and min(res.width_m for res in runs[False][2:]) < 3.2

@@ -769,6 +769,10 @@ class SelfCalConfig(_Section):
         A still that gives no set-up of its own (a curving road, say) is found again with the
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
         that result is kept when it has a lane and its lines are no less sure.
+    first_frame : bool
+        A video's first frame is looked at alone, as a still is (its own set-up, the still
+        gates), and the set-up it gives is used until self-calibration has an estimate
+        (telemetry ``setup`` = ``first-frame``).
     unsure_parallel : float
         While a self-calibrating video runs on the default set-up, before its first sure estimate
         and within its first ``fast_frames`` frames, ``fit.parallel`` is this: a camera mounted
@@ -808,6 +812,7 @@ class SelfCalConfig(_Section):
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
     still_work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
     still_lines: bool = True
+    first_frame: bool = True
     unsure_parallel: Fraction = 0.0
     unsure_parallel_diff_m: PositiveFloat = 5.0
     unsure_curvature_diff: PositiveFloat = 0.008

@@ -288,13 +288,21 @@ class LaneFinder:
         """
         _check_frame(frame)
         be = self.birdseye((frame.shape[1], frame.shape[0]))
+        if self.self_calibrate and (self.selfcal is None or self.selfcal.current.frame_size != be.frame_size):
+            self.selfcal = SelfCalibrator(self.config, be.camera, be)
+            self._curvature_per_m = math.nan
+            # The first frame alone, as a still: a set-up of its own, used until the estimate (on
+            # synthetic unknown mounts the frames before the first estimate scored 0.43-0.59).
+            first = (self.selfcal.first_look(frame) if self.config.selfcal.first_frame
+                     and selfcal_wanted(self.config) else None)
+            if first is not None:
+                self.use_birdseye(first)
+                self.reset()
+                be = first
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
         if not self.self_calibrate:
             return self.extend_far(frame, self.process_binary(binary, be, view), be)
-        if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
-            self.selfcal = SelfCalibrator(self.config, be.camera, be)
-            self._curvature_per_m = math.nan
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)

@@ -38,8 +38,10 @@ class SetupState:
     Attributes
     ----------
     source : str
-        ``config`` (given by the config), ``default`` (self-calibration has no estimate yet)
-        or ``estimated`` (self-calibration's estimate is in use, or confirmed the set-up).
+        ``config`` (given by the config), ``default`` (self-calibration has no estimate yet),
+        ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
+        until an estimate) or ``estimated`` (self-calibration's estimate is in use, or confirmed
+        the set-up).
     frames : int
         Accepted frames the last estimate rests on.
     updates : int
@@ -117,6 +119,7 @@ class SelfCalibrator:
     """
 
     def __init__(self, config: Config, camera: CameraModel, current: BirdsEye):
+        self.config = config
         self.cfg = config.selfcal
         self.current = current
         w, h = current.frame_size
@@ -140,7 +143,40 @@ class SelfCalibrator:
     @property
     def searching(self) -> bool:
         """True while there is no sure estimate and the next frame is among the first ``fast_frames``."""
-        return self.state.source == "default" and self._seen < self.cfg.fast_frames
+        return self.state.source in ("default", "first-frame") and self._seen < self.cfg.fast_frames
+
+    def first_look(self, frame: np.ndarray) -> BirdsEye | None:
+        """Look at a video's first frame alone, as a still is, for a set-up to use until the estimate.
+
+        The frame gets its own set-up only when :func:`still_setup` gives one (one straight frame,
+        the still gates); it then replaces the set-up in use, and ``state.source`` becomes
+        ``first-frame``.  Call it before :meth:`offer` is given any frame.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            The video's first frame, BGR (raw).
+
+        Returns
+        -------
+        BirdsEye or None
+            The frame's own set-up, or None to keep the current one.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> be = LaneFinder().birdseye((1280, 720))
+        >>> cal = SelfCalibrator(Config(), be.camera, be)
+        >>> cal.first_look(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source
+        (True, 'default')
+        """
+        new = still_setup(frame, self.config, self.current)
+        if new is None:
+            return None
+        horizon, height, focal = setup_of(new)
+        self.current = new
+        self.state = SetupState(source="first-frame", horizon_px=horizon, height_m=height, focal_px=focal)
+        return new
 
     def _prepare(self, frame: np.ndarray) -> np.ndarray:
         img = frame

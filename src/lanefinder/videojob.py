@@ -192,6 +192,10 @@ def _setup_lines(st: SetupState) -> list[str]:
     if st.source == "default":
         return ["set-up: self-calibration found too few straight-road frames; the default set-up was used "
                 "(run `lanefinder setup` for this camera)"]
+    if st.source == "first-frame":
+        return [f"set-up: self-calibration found too few straight-road frames; the set-up the first frame gave "
+                f"alone was used: horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road "
+                "(run `lanefinder setup` for this camera)"]
     out = [f"set-up: self-calibrated from {st.frames} frames ({st.updates} change(s)): horizon row "
            f"{st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length {st.focal_px:.0f} px"]
     if st.quality is not None:
