@@ -10,7 +10,7 @@ import pytest
 from lanefinder.autosetup import SetupOptions, auto_setup
 from lanefinder.camera import CameraModel
 from lanefinder.config import Config
-from lanefinder.evaluate import setup_error
+from lanefinder.evaluate import read_ground_truth, setup_error
 from lanefinder.pipeline import LaneFinder, birdseye_from_config, camera_from_config
 from lanefinder.selfcal import wanted
 from lanefinder.synth import Mount, Renderer, Scenario
@@ -314,3 +314,21 @@ def test_a_video_of_an_unknown_mount_is_seen_with_its_first_frame_s_setup_until_
     assert all(res.lane_found and abs(res.width_m - 3.7) < 0.12 for res in runs[True])
     assert [res.setup for res in runs[False]] == ["default"] * 7
     assert not runs[False][0].lane_found and min(res.width_m for res in runs[False][2:]) < 3.2
+
+
+@pytest.mark.slow
+def test_the_first_frame_s_telemetry_is_mapped_with_the_setup_it_was_seen_with(tmp_path):
+    from lanefinder.camera import udacity_camera
+    from lanefinder.synth import write_sequence
+    from lanefinder.telemetry import read_telemetry
+    from lanefinder.videojob import process_video
+
+    folder = write_sequence("straight", 3, tmp_path, seed=4, camera=udacity_camera(), randomise=True)
+    cfg = Config.model_validate({"camera": {"model": str(folder / "camera.json")}})
+    process_video(folder / "video.mp4", None, cfg, telemetry=tmp_path / "t.jsonl", progress=False)
+    rows, truth = read_telemetry(tmp_path / "t.jsonl"), read_ground_truth(folder / "gt.jsonl")
+    assert rows[0]["setup"] == "first-frame" and rows[0]["horizon_px"] == rows[1]["horizon_px"]
+    for side in ("left_x", "right_x"):  # measured: within 1 px (63 and 72 px when mapped with the default)
+        x, t = np.array(rows[0][side]), np.array(truth["frame/000000"][side])
+        both = (x >= 0) & (t >= 0)
+        assert both.sum() >= 10 and np.abs(x[both] - t[both]).mean() < 3

@@ -774,7 +774,7 @@ class SelfCalConfig(_Section):
         gates), and the set-up it gives is used until self-calibration has an estimate
         (telemetry ``setup`` = ``first-frame``).
     unsure_parallel : float
-        While a self-calibrating video runs on the default set-up, before its first sure estimate
+        While a self-calibrating video runs on the default (or its first frame's) set-up, before its first sure estimate
         and within its first ``fast_frames`` frames, ``fit.parallel`` is this: a camera mounted
         otherwise than the default's makes a straight lane's lines converge or part in the
         bird's-eye view, and pulling them parallel bends them ...

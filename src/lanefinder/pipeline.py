@@ -150,6 +150,9 @@ class LaneFinder:
         What the tracker remembers from the frames so far.
     selfcal : SelfCalibrator or None
         The self-calibration, once the first frame is in (with ``self_calibrate``).
+    last_birdseye : BirdsEye or None
+        The set-up the last frame given to :meth:`process` was seen with: its result's lines
+        are in it (self-calibration may put another in use for the next frame).
 
     Examples
     --------
@@ -174,6 +177,7 @@ class LaneFinder:
         self._far_cfg: tuple[Config, ThresholdConfig] | None = None
         self._config_birdseye: BirdsEye | None = None
         self._relaxed_measurer: Measurer | None = None
+        self.last_birdseye: BirdsEye | None = None
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -204,7 +208,7 @@ class LaneFinder:
         return be
 
     def _unsure(self) -> bool:
-        """Tell whether a self-calibrating run is on the default set-up, still searching for a sure estimate."""
+        """Tell whether a self-calibrating run is on the default (or first frame's) set-up, still searching."""
         if not (self.self_calibrate and selfcal_wanted(self.config)):
             return False
         return self.config.selfcal.fast_frames > 0 if self.selfcal is None else self.selfcal.searching
@@ -278,8 +282,8 @@ class LaneFinder:
         -------
         LaneResult
             The lines, the lane numbers (m, 1/m) and the tracker's state.  Its lines are in the
-            set-up :meth:`birdseye` gave before the call: self-calibration may put a new one in
-            use for the next frame, so take ``birdseye()`` before ``process()`` to map them.
+            set-up :attr:`last_birdseye` holds after the call (on a first frame, the one it gave
+            alone; self-calibration may put another in use for the next frame).
 
         Raises
         ------
@@ -299,6 +303,7 @@ class LaneFinder:
                 self.use_birdseye(first)
                 self.reset()
                 be = first
+        self.last_birdseye = be
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
         if not self.self_calibrate:

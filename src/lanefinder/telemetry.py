@@ -4,7 +4,7 @@ Fields (stable names; list-valued fields are JSON arrays, also inside CSV cells)
 time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf, right_conf,
 radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m, left_fit_px,
 right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m, left_x_conf, right_x_conf,
-setup (config, default, estimated, or lines for a still: see :mod:`lanefinder.selfcal`), horizon_px and
+setup (config, default, first-frame, estimated, or lines for a still: see :mod:`lanefinder.selfcal`), horizon_px and
 camera_height_m (the set-up in use: its horizon row and the camera height it implies).
 
 The per-line fields (``left_*``/``right_*``) come from each side's

@@ -331,8 +331,8 @@ class _Run:
 
     def frame(self, f: Frame, draw: bool) -> tuple[LaneResult, np.ndarray | None]:
         """Find one frame's lane; returns the result and, when ``draw`` asks for it, the annotated image."""
-        self.be = self.finder.birdseye((f.image.shape[1], f.image.shape[0]))  # self-calibration may change it
         result = self.finder.process(f.image)
+        self.be = self.finder.last_birdseye  # the set-up this frame was seen with (self-calibration changes it)
         out = None
         on_sheet = self.counts.frames in self.sheet_at
         if draw or on_sheet:
