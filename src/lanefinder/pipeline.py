@@ -214,15 +214,9 @@ class LaneFinder:
         return self.config.selfcal.fast_frames > 0 if self.selfcal is None else self.selfcal.searching
 
     def _build_measurer(self, be: BirdsEye) -> None:
-        """Build the measuring settings for a set-up: as configured, and relaxed as ``selfcal.unsure_*`` say."""
-        cfg, sc = self.config, self.config.selfcal
-        scale = Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px)
-        relaxed = cfg.model_copy(update={
-            "fit": cfg.fit.model_copy(update={"parallel": sc.unsure_parallel}),
-            "tracking": cfg.tracking.model_copy(update={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
-                                                        "max_curvature_diff": sc.unsure_curvature_diff})})
-        self._measurer = Measurer.build(cfg, scale)
-        self._relaxed_measurer = Measurer.build(relaxed, scale)
+        """Build the measuring settings for a set-up (the relaxed ones when a frame first needs them)."""
+        self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
+        self._relaxed_measurer = None
 
     def _frame_measurer(self) -> Measurer:
         """Give the settings to measure this frame with: relaxed while unsure of the set-up on a road read as straight.
@@ -231,12 +225,19 @@ class LaneFinder:
         converge or part in the bird's-eye view; the lane checks that assume parallel lines
         then refuse the true lines, and the fit's pull towards a shared shape bends them.  On a
         curving road the shared shape is worth more than the set-up's error (synthetic sharp
-        curves of unknown mounts, and the harder challenge video, lose without it).
+        curves of unknown mounts, and the harder challenge video, lose without it).  Relaxed
+        means as ``selfcal.unsure_*`` say.
         """
-        radius = self.config.selfcal.unsure_radius_m
-        if self._unsure() and not abs(self._curvature_per_m) * radius > 1:  # NaN (no lane read): relaxed
-            return self._relaxed_measurer
-        return self.measurer
+        cfg, sc = self.config, self.config.selfcal
+        if not self._unsure() or abs(self._curvature_per_m) * sc.unsure_radius_m > 1:  # NaN (no lane): relaxed
+            return self.measurer
+        if self._relaxed_measurer is None:
+            relaxed = cfg.model_copy(update={
+                "fit": cfg.fit.model_copy(update={"parallel": sc.unsure_parallel}),
+                "tracking": cfg.tracking.model_copy(update={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
+                                                            "max_curvature_diff": sc.unsure_curvature_diff})})
+            self._relaxed_measurer = Measurer.build(relaxed, self.measurer.scale)
+        return self._relaxed_measurer
 
     @property
     def measurer(self) -> Measurer:
@@ -311,7 +312,7 @@ class LaneFinder:
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)
-        new = self.selfcal.offer(frame, result.curvature_per_m if result.lane_found else math.nan)
+        new = self.selfcal.offer(frame, self._curvature_per_m)
         if new is not None:
             # From the next frame on, and searched for afresh: lines tracked in the old view would be
             # looked for in the wrong place of the new one (a track kept across a large change held
