@@ -297,6 +297,16 @@ def test_the_stages_of_a_still_are_drawn_with_the_setup_it_was_found_with(test_i
     assert np.array_equal(images["6_final"], annotate(image, result, own, finder.config.render))
     assert not np.array_equal(own.src_px, LaneFinder().birdseye((1280, 720)).src_px)
 
+def test_frames_found_after_a_still_with_its_own_setup_are_labelled_with_it(test_images):
+    finder, image = LaneFinder(), test_images["test4"]
+    assert finder.process_still(image).setup == "estimated"
+    assert finder.process(image).setup == "estimated"  # the still's set-up is still in use
+    finder.use_birdseye(LaneFinder().birdseye((1280, 720)))
+    assert finder.process(image).setup == "config"
+    assert finder.process_still(test_images["straight_lines1"]).setup == "default"
+    assert finder.process(test_images["straight_lines1"]).setup == "config"
+
+
 
 @pytest.mark.slow
 def test_a_video_of_an_unknown_mount_is_seen_with_its_first_frame_s_setup_until_the_estimate():

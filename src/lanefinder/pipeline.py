@@ -178,6 +178,7 @@ class LaneFinder:
         self._config_birdseye: BirdsEye | None = None
         self._relaxed_measurer: Measurer | None = None
         self.last_birdseye: BirdsEye | None = None
+        self._still_source: str | None = None  # a still's own set-up left in use: its label
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -270,6 +271,7 @@ class LaneFinder:
         self._birdseye = be
         self._build_measurer(be)
         self._farview = None
+        self._still_source = None
 
     def process(self, frame: np.ndarray) -> LaneResult:
         """Find the lane in one frame.
@@ -308,7 +310,8 @@ class LaneFinder:
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
         if not self.self_calibrate:
-            return self.extend_far(frame, self.process_binary(binary, be, view), be)
+            result = self.extend_far(frame, self.process_binary(binary, be, view), be)
+            return result if self._still_source is None else replace(result, setup=self._still_source)
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)
@@ -331,8 +334,9 @@ class LaneFinder:
         gives one.  When it gives none and ``selfcal.still_lines``, the still is found again
         with the set-up the lines found in it give (:func:`lanefinder.selfcal.lines_setup`),
         kept when that shows a lane whose lines are no less sure.  That set-up stays in use
-        (:meth:`birdseye` gives it, to draw the result) until the next still; call :meth:`reset`
-        and :meth:`use_birdseye` before using the finder for a video.
+        (:meth:`birdseye` gives it, to draw the result, and :meth:`process` labels its frames
+        with it) until the next still; call :meth:`reset` and :meth:`use_birdseye` before using
+        the finder for a video.
 
         Parameters
         ----------
@@ -359,6 +363,7 @@ class LaneFinder:
         (True, 'default')
         """
         self.reset()
+        self._still_source = None
         if not (selfcal_wanted(self.config) and self.config.selfcal.stills):
             return self.process(frame)
         _check_frame(frame)
@@ -383,7 +388,8 @@ class LaneFinder:
         if own is not None:
             self.use_birdseye(own)
             self.reset()
-            return replace(self.process(frame), setup="estimated")
+            self._still_source = "estimated"
+            return self.process(frame)
         if not self.config.selfcal.still_lines or search is None:
             return first
         from_lines = lines_setup(self._config_birdseye, search.left, search.right, self.config)
@@ -391,9 +397,10 @@ class LaneFinder:
             return first
         self.use_birdseye(from_lines)
         self.reset()
+        self._still_source = "lines"
         second = self.process(frame)
         if second.lane_found and (not first.lane_found or _sureness(second) >= _sureness(first)):
-            return replace(second, setup="lines")
+            return second
         self.use_birdseye(self._config_birdseye)
         self.reset()
         return first

@@ -69,6 +69,34 @@ class SetupState:
     focal_px: float = math.nan
     quality: SetupQuality | None = None
 
+    @classmethod
+    def of(cls, source: str, be: BirdsEye, **more) -> SetupState:
+        """Give the state of a set-up in use: its horizon, camera height and focal length read from it.
+
+        Parameters
+        ----------
+        source : str
+            Where it comes from (see the class).
+        be : BirdsEye
+            The set-up.
+        **more
+            The other fields (``frames``, ``updates``, ``quality``).
+
+        Returns
+        -------
+        SetupState
+            The state.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> state = SetupState.of("default", LaneFinder().birdseye((1280, 720)))
+        >>> state.source, 400 < state.horizon_px < 480
+        ('default', True)
+        """
+        horizon, height, focal = setup_of(be)
+        return cls(source=source, horizon_px=horizon, height_m=height, focal_px=focal, **more)
+
 
 def wanted(config: Config) -> bool:
     """Tell whether a run with this config self-calibrates: enabled, and no set-up of its own.
@@ -137,8 +165,7 @@ class SelfCalibrator:
         self._frames: deque = deque(maxlen=self.cfg.window_frames)
         self._seen = 0
         self._new = 0
-        horizon, height, focal = setup_of(current)
-        self.state = SetupState(source="default", horizon_px=horizon, height_m=height, focal_px=focal)
+        self.state = SetupState.of("default", current)
 
     @property
     def searching(self) -> bool:
@@ -173,12 +200,12 @@ class SelfCalibrator:
         new = still_setup(frame, self.config, self.current)
         if new is None:
             return None
-        horizon, height, focal = setup_of(new)
         self.current = new
-        self.state = SetupState(source="first-frame", horizon_px=horizon, height_m=height, focal_px=focal)
+        self.state = SetupState.of("first-frame", new)
         return new
 
     def _prepare(self, frame: np.ndarray) -> np.ndarray:
+        """As :func:`lanefinder.autosetup.prepare_frame`, with the undistortion tables built once per run."""
         img = frame
         if self.work != (frame.shape[1], frame.shape[0]):
             img = cv2.resize(frame, self.work, interpolation=cv2.INTER_AREA)
@@ -242,11 +269,9 @@ class SelfCalibrator:
         differs = differs and sure_enough
         updates = self.state.updates + differs
         use = be if differs else self.current
-        horizon, height, focal = setup_of(use)
         # An estimate not sure enough neither replaces nor confirms the set-up: the source stays.
         source = "estimated" if sure_enough else self.state.source
-        self.state = SetupState(source=source, frames=quality.frames_used, updates=updates,
-                                horizon_px=horizon, height_m=height, focal_px=focal, quality=quality)
+        self.state = SetupState.of(source, use, frames=quality.frames_used, updates=updates, quality=quality)
         if differs:
             self.current = be
             return be

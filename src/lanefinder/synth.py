@@ -874,11 +874,10 @@ class Renderer:
         rays = np.column_stack([norm, np.ones(len(norm))]) @ self.rot
         if self.hills:
             z = self.meet_road(g, rays.T) * rays[:, 2]
-            return [round(float(v), 3) if np.isfinite(v) else -1.0 for v in z]
-        out = []
-        for ray in rays:
-            out.append(round(float(self.mount.height_m / ray[1] * ray[2]), 3) if ray[1] > 1e-6 else -1.0)
-        return out
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = np.where(rays[:, 1] > 1e-6, self.mount.height_m / rays[:, 1] * rays[:, 2], np.nan)
+        return [round(float(v), 3) if np.isfinite(v) else -1.0 for v in z]
 
     def _line_image_at(self, g: dict, z: float) -> tuple[float, list[float]]:
         """Give the row of the road ``z`` m ahead and both lines' x there, distorted frame pixels."""
