@@ -66,6 +66,7 @@ __all__ = [
     "frame_lines",
     "line_curvature",
     "line_segments",
+    "nominal_setup",
     "prepare_frame",
     "preview",
     "road_from_lines",
@@ -1269,6 +1270,55 @@ def estimate_road(evidence: Sequence[FrameEvidence], grays: dict[int, np.ndarray
                         vp_sigma_px=(se * max(_spread(vps[:, 0]), floor), se * max(_spread(vps[:, 1]), floor)),
                         height_sigma=se * max(_spread(hs) / height, opts.height_floor),
                         focal_sigma=focal_sigma, work_scale=work_scale)
+
+
+def nominal_setup(camera: CameraModel, frame_size: tuple[int, int], pitch_deg: float, yaw_deg: float,
+                  height_m: float, opts: SetupOptions | None = None) -> BirdseyeConfig:
+    """Give the set-up of a lens mounted as given: the camera pitched, turned, at a height.
+
+    For a lens without a set-up of its own: the starting set-up until self-calibration has an
+    estimate (the default set-up's trapezoid is the Udacity lens's, and with another focal
+    length it is no rectangle on the road).
+
+    Parameters
+    ----------
+    camera : CameraModel
+        The lens (scaled to ``frame_size`` here).
+    frame_size : tuple of int
+        (width, height) of the frames, pixels.
+    pitch_deg : float
+        How far the camera looks down, degrees (the horizon that far above the principal point's row).
+    yaw_deg : float
+        How far it is turned left, degrees (the road's vanishing point that far right of the
+        principal point's column).
+    height_m : float
+        The camera's height over the road, m.
+    opts : SetupOptions, optional
+        The view's reach and the lane width.
+
+    Returns
+    -------
+    BirdseyeConfig
+        The set-up for frames of ``frame_size``, the car in the lane's centre.
+
+    Raises
+    ------
+    LaneFinderError
+        As :func:`view_from_estimate`.
+
+    Examples
+    --------
+    >>> cam = CameraModel.ideal((1920, 1080), hfov_deg=90.0)
+    >>> b = nominal_setup(cam, (1920, 1080), 1.5, 0.0, 1.3)
+    >>> b.reference_size, b.size, [round(v) for v in b.src[0]]
+    ((1920, 1080), (400, 300), [909, 600])
+    """
+    k = camera.scaled_to(frame_size).camera_matrix
+    vp = (float(k[0, 2] + k[0, 0] * math.tan(math.radians(yaw_deg))),
+          float(k[1, 2] + k[1, 1] * math.tan(math.radians(pitch_deg))))
+    est = RoadEstimate(camera_matrix=k, vp=vp, height_m=height_m, centre_m=0.0, focal_source="camera file",
+                       evidence=())
+    return view_from_estimate(est, frame_size, opts or SetupOptions())[0]
 
 
 def view_from_estimate(est: RoadEstimate, frame_size: tuple[int, int],

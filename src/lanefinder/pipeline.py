@@ -9,14 +9,16 @@ tracker transition (:mod:`lanefinder.tracking`), whose verdict becomes a
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
 import numpy as np
 
-from .birdseye import BirdsEye, make_birdseye
+from .autosetup import nominal_setup
+from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
 from .camera import CameraModel, load_camera, udacity_camera
-from .config import Config, ThresholdConfig
+from .config import BirdseyeConfig, Config, ThresholdConfig
 from .errors import LaneFinderError
 from .farfield import FarView, follow_line, make_farview
 from .geometry import Scale, lane_geometry, poly_x
@@ -72,6 +74,10 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     """Build the bird's-eye set-up a configuration gives, for frames of one size.
 
     The source trapezoid is given for ``birdseye.reference_size`` and scales with the frame.
+    The default set-up's trapezoid is the Udacity lens's: for another lens (a camera file, or
+    ``camera.model = "none"``) with no set-up of its own, the set-up is that lens mounted as the
+    default set-up's camera is (:func:`lanefinder.autosetup.nominal_setup`: pitched 1.45 degrees
+    down, turned 1.36 degrees right, 1.26 m over the road), for frames of any size.
 
     Parameters
     ----------
@@ -100,6 +106,12 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     """
     b = cfg.birdseye
     w, h = frame_size
+    if b == BirdseyeConfig() and not _udacity_lens(camera):
+        # Another lens and no set-up: the default trapezoid is the Udacity lens's (with another
+        # focal length it is no rectangle on the road); the lens mounted as that set-up's camera
+        # is (for a 90-degree 1080p lens the default put the horizon 79 px off).
+        check_memory(cfg, (w, h))
+        b = nominal_setup(camera, (w, h), *_default_mount())
     rw, rh = b.reference_size
     if abs((w / h) / (rw / rh) - 1) > 0.01:
         raise LaneFinderError(
@@ -110,6 +122,29 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     cam = camera.scaled_to(frame_size)
     src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+
+
+def _udacity_lens(camera: CameraModel) -> bool:
+    """Tell whether a lens is the Udacity camera's (the default set-up's), at any frame size of its aspect."""
+    ref = udacity_camera()
+    w, h = camera.image_size
+    if abs((w / h) / (ref.image_size[0] / ref.image_size[1]) - 1) > 0.01:
+        return False
+    same = camera.scaled_to(ref.image_size)
+    d, dr = same.dist_coeffs.ravel(), ref.dist_coeffs.ravel()
+    n = max(d.size, dr.size)
+    return bool(np.allclose(same.camera_matrix, ref.camera_matrix, rtol=1e-4, atol=1e-3)
+                and np.allclose(np.pad(d, (0, n - d.size)), np.pad(dr, (0, n - dr.size)), rtol=1e-4, atol=1e-6))
+
+
+@functools.cache
+def _default_mount() -> tuple[float, float, float]:
+    """Give the default set-up's camera pitch (degrees down), yaw (degrees left) and height (m): Udacity lens."""
+    be = birdseye_from_config(Config(), udacity_camera(), (1280, 720))
+    vp_x, vp_y = src_vanishing_point(be.src_px)
+    k = be.camera.camera_matrix
+    return (math.degrees(math.atan((vp_y - k[1, 2]) / k[1, 1])), math.degrees(math.atan((vp_x - k[0, 2]) / k[0, 0])),
+            setup_of(be)[1])
 
 
 def _sureness(result: LaneResult) -> float:
