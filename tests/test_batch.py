@@ -230,3 +230,18 @@ def test_a_video_cut_short_gives_the_frames_that_could_be_read(tmp_path):
     assert summary["truncated"] and 60 < summary["frames"] < 200
     frames = [r["frame"] for r in rows_of(tmp_path / "out", "cut")]
     assert frames == sorted(set(frames)) and frames[0] == 0
+
+
+def test_the_summary_s_setup_is_the_one_the_run_started_from(tmp_path):
+    from lanefinder.batch import _EVENT_COLUMNS, _summarise
+    from lanefinder.camera import CameraModel, save_camera
+    from lanefinder.pipeline import birdseye_config_used, camera_from_config
+
+    save_camera(CameraModel.ideal((1280, 720), hfov_deg=90.0), tmp_path / "wide.json")
+    empty = {"columns": {k: [] for k in _EVENT_COLUMNS}, "both_found": 0, "damaged": 0, "truncated": False,
+             "seconds": 1.0}
+    for cfg in (Config(), Config.model_validate({"camera": {"model": str(tmp_path / "wide.json")}})):
+        setup = json.loads(_summarise([empty], 25.0, cfg, (1280, 720))[0]["setup"])
+        used = birdseye_config_used(cfg, camera_from_config(cfg, (1280, 720)), (1280, 720))
+        assert setup["src"] == [list(p) for p in used.src]  # for another lens, its nominal set-up
+    assert used.src != Config().birdseye.src

@@ -126,6 +126,32 @@ def test_saved_config_is_atomic_and_never_over_an_input(fleet_dir):
 
 
 @pytest.mark.slow  # a batch over two clips (the fleet) or a video run
+def test_another_lens_shows_and_tunes_the_setup_in_use(fleet_dir, tmp_path):
+    from fastapi.testclient import TestClient
+
+    from lanefinder.camera import CameraModel, save_camera
+    from lanefinder.pipeline import birdseye_config_used, camera_from_config
+
+    save_camera(CameraModel.ideal((1280, 720), hfov_deg=90.0), tmp_path / "wide.json")
+    cfg = Config.model_validate({"camera": {"model": str(tmp_path / "wide.json")}})
+    used = birdseye_config_used(cfg, camera_from_config(cfg, (1280, 720)), (1280, 720))
+    assert used.src != cfg.birdseye.src  # the lens's nominal set-up, not the Udacity lens's trapezoid
+    client = TestClient(create_app(Review(fleet_dir, cfg)))
+    info = client.get("/api/videos/harder").json()
+    assert info["src"] == [list(p) for p in used.src] and info["reference_size"] == [1280, 720]
+    dragged = [[x + 4.0, y] for x, y in used.src]
+    body = {"src": dragged, "reference_size": [1280, 720], "video": "harder"}
+    r = client.post("/api/videos/harder/frames/0/inspect", json=body).json()
+    assert r["src"] == dragged and r["reference_size"] == [1280, 720]
+    saved = Path(client.post("/api/config/save", json=body).json()["path"])
+    try:
+        b = load_config(saved).birdseye
+        assert [list(p) for p in b.src] == dragged and b.xm_per_px == used.xm_per_px  # the nominal scales kept
+    finally:
+        saved.unlink()
+
+
+@pytest.mark.slow  # a batch over two clips (the fleet) or a video run
 def test_a_video_with_its_telemetry_and_bad_paths(tmp_path):
     from lanefinder.errors import LaneFinderError
     from lanefinder.videojob import process_video

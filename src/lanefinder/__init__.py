@@ -6,7 +6,7 @@ from .errors import LaneFinderError
 from .lane import LaneResult, Line
 from .pipeline import LaneFinder
 
-__version__ = "0.1.0"
+__version__ = "0.1.1"
 
 __all__ = [
     "CameraModel",

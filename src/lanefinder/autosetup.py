@@ -1287,7 +1287,8 @@ def nominal_setup(camera: CameraModel, frame_size: tuple[int, int], pitch_deg: f
     frame_size : tuple of int
         (width, height) of the frames, pixels.
     pitch_deg : float
-        How far the camera looks down, degrees (the horizon that far above the principal point's row).
+        How far the camera looks down, degrees (the horizon that far above the principal point's
+        row; negative: looking up).
     yaw_deg : float
         How far it is turned left, degrees (the road's vanishing point that far right of the
         principal point's column).
@@ -1304,21 +1305,26 @@ def nominal_setup(camera: CameraModel, frame_size: tuple[int, int], pitch_deg: f
     Raises
     ------
     LaneFinderError
-        As :func:`view_from_estimate`.
+        When the horizon lies below the bottom row, or the bottom row lies beyond the view's
+        reach (:func:`view_from_estimate`).
 
     Examples
     --------
     >>> cam = CameraModel.ideal((1920, 1080), hfov_deg=90.0)
-    >>> b = nominal_setup(cam, (1920, 1080), 1.5, 0.0, 1.3)
+    >>> b = nominal_setup(cam, (1920, 1080), -1.5, 0.0, 1.3)
     >>> b.reference_size, b.size, [round(v) for v in b.src[0]]
     ((1920, 1080), (400, 300), [909, 600])
     """
     k = camera.scaled_to(frame_size).camera_matrix
     vp = (float(k[0, 2] + k[0, 0] * math.tan(math.radians(yaw_deg))),
-          float(k[1, 2] + k[1, 1] * math.tan(math.radians(pitch_deg))))
+          float(k[1, 2] - k[1, 1] * math.tan(math.radians(pitch_deg))))
+    opts = opts or SetupOptions()
+    if not vp[1] < opts.bottom_fraction * (frame_size[1] - 1):
+        raise LaneFinderError(f"with this lens a camera pitched {pitch_deg:+.2f} degrees has its horizon below the "
+                              "bottom row: no road ahead to see")
     est = RoadEstimate(camera_matrix=k, vp=vp, height_m=height_m, centre_m=0.0, focal_source="camera file",
                        evidence=())
-    return view_from_estimate(est, frame_size, opts or SetupOptions())[0]
+    return view_from_estimate(est, frame_size, opts)[0]
 
 
 def view_from_estimate(est: RoadEstimate, frame_size: tuple[int, int],

@@ -577,9 +577,11 @@ _SUMMARY_FIELDS = ("video", "input", "status", "error", "frames", "duration_s", 
                    "events_lane_change_right", "events_lost")
 
 
-def _summarise(results: list[dict], fps: float, cfg: Config) -> tuple[dict, list[dict]]:
+def _summarise(results: list[dict], fps: float, cfg: Config,
+               frame_size: tuple[int, int]) -> tuple[dict, list[dict]]:
     """Give a video's summary and events from its segments' results (in order)."""
     from .events import EVENT_KINDS, detect_events, event_row
+    from .pipeline import birdseye_config_used, camera_from_config
 
     cols: dict[str, list] = {k: [] for k in _EVENT_COLUMNS}
     for r in results:
@@ -590,7 +592,10 @@ def _summarise(results: list[dict], fps: float, cfg: Config) -> tuple[dict, list
     events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
     seconds = sum(r["seconds"] for r in results)
     kinds = {k: sum(e["kind"] == k for e in events) for k in EVENT_KINDS}
-    b = cfg.birdseye
+    try:  # the set-up the run started from (another lens's nominal one, with no set-up of its own)
+        b = birdseye_config_used(cfg, camera_from_config(cfg, frame_size), frame_size)
+    except LaneFinderError:
+        b = cfg.birdseye
     summary = {
         **lane_shares(cols["state"], cols["width_m"]), "duration_s": round(n / fps, 3) if fps else None,
         "pct_both_lines": round(100 * sum(r["both_found"] for r in results) / n, 2) if n else None,
@@ -832,7 +837,8 @@ class _Fleet:
         try:
             if errors:
                 raise LaneFinderError(errors[0])
-            summary, events = _summarise([r for r in results if "empty" not in r], probe["fps"], self.cfg)
+            summary, events = _summarise([r for r in results if "empty" not in r], probe["fps"], self.cfg,
+                                         tuple(probe["size"]))
             _remove(self.fs, _partition(self.root, vid))
             self.fs.mv(_staging(self.root, vid), _partition(self.root, vid), recursive=True)
         except Exception as e:

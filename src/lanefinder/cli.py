@@ -122,7 +122,7 @@ def main(ctx: click.Context, verbose: bool) -> None:
     --------
     >>> from click.testing import CliRunner
     >>> CliRunner().invoke(main, ["--version"]).output.strip()
-    'lanefinder, version 0.1.0'
+    'lanefinder, version 0.1.1'
     """  # noqa: D301 (click cuts the help at the form feed, before the examples)
     ctx.obj = {"verbose": verbose}
 

@@ -31,7 +31,7 @@ from .selfcal import wanted as selfcal_wanted
 from .threshold import rowwise, threshold
 from .tracking import Track, Verdict, step
 
-__all__ = ["LaneFinder", "LaneResult", "birdseye_from_config", "camera_from_config"]
+__all__ = ["LaneFinder", "LaneResult", "birdseye_config_used", "birdseye_from_config", "camera_from_config"]
 
 
 def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -> CameraModel:
@@ -74,10 +74,9 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     """Build the bird's-eye set-up a configuration gives, for frames of one size.
 
     The source trapezoid is given for ``birdseye.reference_size`` and scales with the frame.
-    The default set-up's trapezoid is the Udacity lens's: for another lens (a camera file, or
-    ``camera.model = "none"``) with no set-up of its own, the set-up is that lens mounted as the
-    default set-up's camera is (:func:`lanefinder.autosetup.nominal_setup`: pitched 1.45 degrees
-    down, turned 1.36 degrees right, 1.26 m over the road), for frames of any size.
+    The default set-up's trapezoid is the Udacity lens's: for another lens given by a camera file
+    with no set-up of its own, the set-up is that lens mounted as the default set-up's camera is
+    (:func:`birdseye_config_used`), for frames of the lens's aspect ratio.
 
     Parameters
     ----------
@@ -104,14 +103,9 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     >>> be.size, round(be.xm_per_px, 4)
     ((400, 300), 0.0247)
     """
-    b = cfg.birdseye
     w, h = frame_size
-    if b == BirdseyeConfig() and not _udacity_lens(camera):
-        # Another lens and no set-up: the default trapezoid is the Udacity lens's (with another
-        # focal length it is no rectangle on the road); the lens mounted as that set-up's camera
-        # is (for a 90-degree 1080p lens the default put the horizon 79 px off).
-        check_memory(cfg, (w, h))
-        b = nominal_setup(camera, (w, h), *_default_mount())
+    check_memory(cfg, (w, h))
+    b = birdseye_config_used(cfg, camera, (w, h))
     rw, rh = b.reference_size
     if abs((w / h) / (rw / rh) - 1) > 0.01:
         raise LaneFinderError(
@@ -122,6 +116,53 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     cam = camera.scaled_to(frame_size)
     src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+
+
+def birdseye_config_used(cfg: Config, camera: CameraModel, frame_size: tuple[int, int]) -> BirdseyeConfig:
+    """Give the set-up a configuration puts in use for a lens and frames of one size.
+
+    That is ``cfg.birdseye``, except for a config without a set-up of its own and a lens of its
+    own (a camera file) other than the Udacity camera's (the default set-up's trapezoid was drawn
+    for that lens; with another focal length it is no rectangle on the road): then the lens
+    mounted as the default set-up's camera is (:func:`lanefinder.autosetup.nominal_setup`:
+    looking 1.45 degrees up, turned 1.36 degrees right, 1.26 m over the road), for frames of
+    ``frame_size``.  When that mount cannot see the road ahead (a very long focal length puts the
+    horizon below the bottom row), the default trapezoid.
+
+    ``camera.model = "none"`` keeps the default trapezoid: its lens's principal point is a guess
+    (the frame's centre), and a pitch from a guessed axis placed the horizon worse on footage
+    of the Udacity lens (whose principal point lies 30 px below the centre) than the trapezoid does.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (``birdseye``).
+    camera : CameraModel
+        The lens model.
+    frame_size : tuple of int
+        (width, height) of the frames, pixels.
+
+    Returns
+    -------
+    BirdseyeConfig
+        The set-up (its ``reference_size`` is the frame size for a nominal one).
+
+    Examples
+    --------
+    >>> birdseye_config_used(Config(), udacity_camera(), (1920, 1080)) == Config().birdseye
+    True
+    >>> wide = CameraModel.ideal((1920, 1080), hfov_deg=90.0)
+    >>> birdseye_config_used(Config(), wide, (1920, 1080)).reference_size
+    (1920, 1080)
+    """
+    b = cfg.birdseye
+    if b != BirdseyeConfig() or cfg.camera.model == "none" or _udacity_lens(camera):
+        return b
+    # (For a 90-degree 1080p lens the default trapezoid put the horizon 79 px off.)
+    try:
+        return nominal_setup(camera, frame_size, *_default_mount())
+    except (LaneFinderError, ValueError):
+        return b
 
 
 def _udacity_lens(camera: CameraModel) -> bool:
@@ -143,7 +184,7 @@ def _default_mount() -> tuple[float, float, float]:
     be = birdseye_from_config(Config(), udacity_camera(), (1280, 720))
     vp_x, vp_y = src_vanishing_point(be.src_px)
     k = be.camera.camera_matrix
-    return (math.degrees(math.atan((vp_y - k[1, 2]) / k[1, 1])), math.degrees(math.atan((vp_x - k[0, 2]) / k[0, 0])),
+    return (math.degrees(math.atan((k[1, 2] - vp_y) / k[1, 1])), math.degrees(math.atan((vp_x - k[0, 2]) / k[0, 0])),
             setup_of(be)[1])
 
 
@@ -241,6 +282,7 @@ class LaneFinder:
             be = birdseye_from_config(self.config, self.camera, tuple(frame_size))
             self._birdseye = be
             self._build_measurer(be)
+            self._still_source = None  # a still's own set-up is no longer the one in use
         return be
 
     def _unsure(self) -> bool:
@@ -424,7 +466,7 @@ class LaneFinder:
             self.use_birdseye(own)
             self.reset()
             self._still_source = "estimated"
-            return self.process(frame)
+            return replace(self.process(frame), setup="estimated")
         if not self.config.selfcal.still_lines or search is None:
             return first
         from_lines = lines_setup(self._config_birdseye, search.left, search.right, self.config)
@@ -433,7 +475,7 @@ class LaneFinder:
         self.use_birdseye(from_lines)
         self.reset()
         self._still_source = "lines"
-        second = self.process(frame)
+        second = replace(self.process(frame), setup="lines")
         if second.lane_found and (not first.lane_found or _sureness(second) >= _sureness(first)):
             return second
         self.use_birdseye(self._config_birdseye)

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from .config import Config, config_from_dict, dump_config, load_config
+from .config import BirdseyeConfig, Config, config_from_dict, dump_config, load_config
 from .errors import LaneFinderError
 from .io import atomic_write_text
 from .stats import lane_shares
@@ -584,8 +584,14 @@ def _fields(model: BaseModel, prefix: str, out: list[dict]) -> None:
         out.append(entry)
 
 
-def _merged(base: Config, changes: dict[str, Any], src: list | None) -> Config:
-    """Give the base config with the form's changes (``a.b.c`` keys) and the trapezoid applied."""
+def _merged(base: Config, changes: dict[str, Any], src: list | None,
+            reference_size: tuple[int, int] | None = None, frame_size: tuple[int, int] | None = None) -> Config:
+    """Give the base config with the form's changes (``a.b.c`` keys) and the trapezoid applied.
+
+    A dragged trapezoid (``src``, for frames of ``reference_size``) replaces the corners of the
+    set-up in use for frames of ``frame_size`` (:func:`_used_birdseye`): for another lens with no
+    set-up of its own, the lens's nominal set-up, with its scales.
+    """
     data = base.model_dump(mode="json")
     for key, value in changes.items():
         parts = key.split(".")
@@ -600,8 +606,24 @@ def _merged(base: Config, changes: dict[str, Any], src: list | None) -> Config:
             raise LaneFinderError(f"{key}: no such setting")
         node[parts[-1]] = value
     if src is not None:
+        if frame_size is not None:
+            data["birdseye"] = _used_birdseye(base, frame_size).model_dump(mode="json")
         data["birdseye"]["src"] = src
+        if reference_size is not None:
+            data["birdseye"]["reference_size"] = list(reference_size)
     return config_from_dict(data, "the form")
+
+
+def _used_birdseye(cfg: Config, frame_size: tuple[int, int] | None) -> BirdseyeConfig:
+    """Give the set-up a config puts in use for frames of a size (the config's own when the size is unknown)."""
+    from .pipeline import birdseye_config_used, camera_from_config
+
+    if frame_size is None:
+        return cfg.birdseye
+    try:
+        return birdseye_config_used(cfg, camera_from_config(cfg, frame_size), frame_size)
+    except LaneFinderError:
+        return cfg.birdseye
 
 
 # -- the app --------------------------------------------------------------------------------------
@@ -653,6 +675,8 @@ class _BoundedBody:
 class _Inspect(BaseModel):
     config: dict[str, Any] = {}
     src: list[list[float]] | None = None
+    reference_size: tuple[int, int] | None = None  # the frame size ``src`` is given for
+    video: str | None = None  # (to save) the video whose frames the trapezoid was drawn on
 
 
 def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
@@ -749,9 +773,13 @@ def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
         rows = v.rows()
         series = {k: [row.get(k) for row in rows] for k in _SERIES}
         series["frame"] = [row["frame"] for row in rows]
+        used = _used_birdseye(review.config, frame_size_of(v))
         return _clean({"video": v.video_id, "frames": v.frame_count(), "fps": v.fps(), "source": v.source is not None,
                        "series": series, "events": v.events, "summary": v.summary,
-                       "src": review.config.birdseye.src, "reference_size": review.config.birdseye.reference_size})
+                       "src": used.src, "reference_size": used.reference_size})
+
+    def frame_size_of(v: VideoSource) -> tuple[int, int] | None:
+        return tuple(v.reader().size) if v.source is not None else None
 
     def with_source(video_id: str) -> VideoSource:
         v = video(video_id)
@@ -776,19 +804,23 @@ def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
         v = with_source(video_id)
         n = frame_index(v, n)
         t0 = time.perf_counter()
-        cfg = _merged(review.config, body.config, body.src)
+        size = frame_size_of(v)
+        cfg = _merged(review.config, body.config, body.src, body.reference_size, size)
         img = v.reader().get(n)
         images, result = inspect_frame(img, LaneFinder(cfg))
+        used = _used_birdseye(cfg, size)
         encoded = {k: "data:image/jpeg;base64," + base64.b64encode(_jpeg(im, 800)).decode() for k, im in images.items()}
         return _clean({"ms": round((time.perf_counter() - t0) * 1000, 1), "images": encoded,
                        "result": {"state": result.state, "offset_m": result.offset_m, "width_m": result.width_m,
                                   "radius_m": result.radius_m, "left_conf": result.left.confidence,
                                   "right_conf": result.right.confidence, "checks": list(result.checks)},
-                       "src": cfg.birdseye.src, "reference_size": cfg.birdseye.reference_size})
+                       "src": used.src, "reference_size": used.reference_size})
 
     @app.post("/api/config/save")
     def save(body: _Inspect):
-        cfg = _merged(review.config, body.config, body.src)
+        v = review.videos.get(body.video) if body.video is not None else None
+        cfg = _merged(review.config, body.config, body.src, body.reference_size,
+                      frame_size_of(v) if v is not None else None)
         path = review.save_config(cfg)
         return {"path": str(path), "name": path.name}
 

@@ -240,7 +240,8 @@ function scheduleInspect() {
 }
 
 function body() {
-  return JSON.stringify({ config: state.changes, src: state.src });
+  return JSON.stringify({ config: state.changes, src: state.src, reference_size: state.src ? state.srcSize : null,
+    video: state.video ? state.video.video : null });
 }
 
 async function inspect() {
@@ -288,12 +289,12 @@ function drawTrapezoid(src, size) {
     c.setAttribute("cx", p[0]); c.setAttribute("cy", p[1]); c.setAttribute("r", 10);
     c.dataset.index = i;
     c.id = `corner-${i}`;
-    c.addEventListener("pointerdown", (ev) => startDrag(ev, c, src.map((q) => [...q])));
+    c.addEventListener("pointerdown", (ev) => startDrag(ev, c, src.map((q) => [...q]), size));
     svg.appendChild(c);
   });
 }
 
-function startDrag(ev, circle, pts) {
+function startDrag(ev, circle, pts, size) {
   const svg = $("trapezoid");
   svg.dataset.dragging = "1";
   circle.setPointerCapture(ev.pointerId);
@@ -313,6 +314,7 @@ function startDrag(ev, circle, pts) {
     circle.removeEventListener("pointermove", move);
     svg.dataset.dragging = "0";
     state.src = pts;
+    state.srcSize = size;
     inspect();
   };
   circle.addEventListener("pointermove", move);
