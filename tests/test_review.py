@@ -149,6 +149,15 @@ def test_another_lens_shows_and_tunes_the_setup_in_use(fleet_dir, tmp_path):
         assert [list(p) for p in b.src] == dragged and b.xm_per_px == used.xm_per_px  # the nominal scales kept
     finally:
         saved.unlink()
+    # Saved only with the video it was drawn on, and only when it can serve that video.
+    for bad, status, message in ((dict(body, video="nosuch"), 404, "no video"),
+                                 ({"src": dragged}, 422, "give 'video'"),
+                                 (dict(body, reference_size=[1000, 1000]), 422, "aspect ratio"),
+                                 ({"reference_size": [1280, 720]}, 422, "reference_size goes with src"),
+                                 (dict(body, reference_size=[1280.5, 720]), 422, "reference_size.0: ")):
+        r = client.post("/api/config/save", json=bad)
+        assert r.status_code == status and message in r.json()["detail"], bad
+    assert not list(fleet_dir.glob("review-config*.toml"))
 
 
 @pytest.mark.slow  # a batch over two clips (the fleet) or a video run

@@ -1305,8 +1305,8 @@ def nominal_setup(camera: CameraModel, frame_size: tuple[int, int], pitch_deg: f
     Raises
     ------
     LaneFinderError
-        When the horizon lies below the bottom row, or the bottom row lies beyond the view's
-        reach (:func:`view_from_estimate`).
+        When the horizon lies below the view's bottom row (``opts.bottom_fraction`` of the
+        frame's height), or that row lies beyond the view's reach (:func:`view_from_estimate`).
 
     Examples
     --------
@@ -1321,7 +1321,7 @@ def nominal_setup(camera: CameraModel, frame_size: tuple[int, int], pitch_deg: f
     opts = opts or SetupOptions()
     if not vp[1] < opts.bottom_fraction * (frame_size[1] - 1):
         raise LaneFinderError(f"with this lens a camera pitched {pitch_deg:+.2f} degrees has its horizon below the "
-                              "bottom row: no road ahead to see")
+                              "view's bottom row: no road ahead to see")
     est = RoadEstimate(camera_matrix=k, vp=vp, height_m=height_m, centre_m=0.0, focal_source="camera file",
                        evidence=())
     return view_from_estimate(est, frame_size, opts)[0]

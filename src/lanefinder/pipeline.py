@@ -112,7 +112,6 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
             f"frame size {w}x{h} has another aspect ratio than the configured set-up ({rw}x{rh}); "
             "run 'lanefinder setup' for this camera"
         )
-    check_memory(cfg, (w, h))
     cam = camera.scaled_to(frame_size)
     src = np.asarray(b.src, np.float64) * [w / rw, h / rh]
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
@@ -126,8 +125,9 @@ def birdseye_config_used(cfg: Config, camera: CameraModel, frame_size: tuple[int
     for that lens; with another focal length it is no rectangle on the road): then the lens
     mounted as the default set-up's camera is (:func:`lanefinder.autosetup.nominal_setup`:
     looking 1.45 degrees up, turned 1.36 degrees right, 1.26 m over the road), for frames of
-    ``frame_size``.  When that mount cannot see the road ahead (a very long focal length puts the
-    horizon below the bottom row), the default trapezoid.
+    ``frame_size``.  When that mount gives no view (a long focal length: the frame's bottom rows
+    lie beyond the view's 40 m reach, or the horizon below them; at 1280x720 a lens narrower
+    than about 16 degrees), the default trapezoid.
 
     ``camera.model = "none"`` keeps the default trapezoid: its lens's principal point is a guess
     (the frame's centre), and a pitch from a guessed axis placed the horizon worse on footage

@@ -592,6 +592,8 @@ def _merged(base: Config, changes: dict[str, Any], src: list | None,
     set-up in use for frames of ``frame_size`` (:func:`_used_birdseye`): for another lens with no
     set-up of its own, the lens's nominal set-up, with its scales.
     """
+    if reference_size is not None and src is None:
+        raise LaneFinderError("reference_size goes with src: the frame size the trapezoid is given for")
     data = base.model_dump(mode="json")
     for key, value in changes.items():
         parts = key.split(".")
@@ -708,6 +710,7 @@ def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
     ('h', 404)
     """
     from fastapi import FastAPI, HTTPException, Request
+    from fastapi.exceptions import RequestValidationError
     from fastapi.responses import FileResponse, JSONResponse, Response
     from starlette.middleware.trustedhost import TrustedHostMiddleware
 
@@ -818,9 +821,15 @@ def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
 
     @app.post("/api/config/save")
     def save(body: _Inspect):
-        v = review.videos.get(body.video) if body.video is not None else None
-        cfg = _merged(review.config, body.config, body.src, body.reference_size,
-                      frame_size_of(v) if v is not None else None)
+        from .pipeline import LaneFinder
+
+        size = frame_size_of(video(body.video)) if body.video is not None else None
+        if body.src is not None and size is None:
+            raise LaneFinderError("a trapezoid is saved with the video it was drawn on: give 'video', one whose "
+                                  "source is readable here")
+        cfg = _merged(review.config, body.config, body.src, body.reference_size, size)
+        if size is not None:
+            LaneFinder(cfg).birdseye(size)  # a config that cannot serve this video is refused, not saved
         path = review.save_config(cfg)
         return {"path": str(path), "name": path.name}
 
@@ -834,6 +843,13 @@ def create_app(review: Review, allowed_hosts: tuple[str, ...] | None = None):
     @app.exception_handler(ValidationError)
     async def bad_body(_request: Request, exc: ValidationError):
         return JSONResponse({"detail": str(exc).splitlines()[0]}, status_code=422)
+
+    @app.exception_handler(RequestValidationError)
+    async def bad_request(_request: Request, exc: RequestValidationError):
+        errors = exc.errors()
+        first = errors[0] if errors else {}
+        where = ".".join(str(p) for p in first.get("loc", ())[1:]) or "request"
+        return JSONResponse({"detail": f"{where}: {first.get('msg', 'invalid')}"}, status_code=422)
 
     return app
 
