@@ -175,6 +175,10 @@ def work(tmp_path):
     cam = json.loads(CAMERA.read_text())
     cam["camera_matrix"] = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]
     (tmp_path / "zero_cam.json").write_text(json.dumps(cam))
+    cam["camera_matrix"] = [[2, 0, 640], [0, 2, 360], [0, 0, 1]]  # a mistyped focal length: 179.6 degrees
+    (tmp_path / "f2_cam.json").write_text(json.dumps(cam))
+    (tmp_path / "f2.toml").write_text('[camera]\nmodel = "none"\nfocal_px = 2\n')
+    (tmp_path / "focal_udacity.toml").write_text("[camera]\nfocal_px = 800\n")
     return tmp_path
 
 
@@ -203,6 +207,11 @@ CASES = [
     ("image -o under a file", "image {w}/test3.jpg -o {w}/a_file/out", "a_file is a file"),
     ("image camera is a JPEG", "synth --camera {w}/cam.jpg.yaml -o {w}/s --frames 1", "cannot read it as JSON"),
     ("synth zero camera", "synth --camera {w}/zero_cam.json -o {w}/s --frames 1", "camera_matrix is not"),
+    ("synth camera of 179.6 degrees", "synth --camera {w}/f2_cam.json -o {w}/s --frames 1", "field of view"),
+    ("config focal_px 2", "config --check {w}/f2.toml", "camera.focal_px 2 px over 1280 px"),
+    ("config focal_px for udacity", "config --check {w}/focal_udacity.toml", "for model 'none' only"),
+    ("setup --video missing", "setup --video {w}/nope.mp4 -o {w}/s.toml", "video not found"),
+    ("synth camera is a folder", "synth --camera {w} -o {w}/s --frames 1", "is a folder"),
     ("synth --pitch -30", "synth --pitch -30 -o {w}/s", "not in the range"),
     ("synth --seed -1", "synth --seed -1 -o {w}/s", "-1"),
     ("synth -o under a file", "synth --frames 1 -o {w}/a_file/s", "a_file is a file"),

@@ -19,6 +19,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from .config import MAX_FOV_DEG, MIN_FOV_DEG
 from .errors import LaneFinderError
 from .io import atomic_write_text, list_images, read_image
 
@@ -470,8 +471,11 @@ def load_camera(path: str | Path) -> CameraModel:
     lanefinder.errors.LaneFinderError: camera file not found: nowhere.json
     """
     p = Path(path)
+    if p.is_dir():
+        raise LaneFinderError(f"{p} is a folder, not a camera file")
     if not p.is_file():
-        raise LaneFinderError(f"camera file not found: {p}")
+        hint = f" (camera.model {p.name.lower()!r} is lower case)" if p.name.lower() in ("none", "udacity") else ""
+        raise LaneFinderError(f"camera file not found: {p}{hint}")
     if p.suffix.lower() == ".json":
         try:
             d = json.loads(p.read_text())
@@ -502,6 +506,10 @@ def _checked_camera(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple, rms, 
         raise LaneFinderError(f"{p}: dist_coeffs must be 4, 5, 8, 12 or 14 finite numbers")
     if len(size) != 2 or not all(16 <= v <= 16384 for v in size):
         raise LaneFinderError(f"{p}: image_size must be (width, height), 16 to 16384 pixels each")
+    fov = math.degrees(2 * math.atan(size[0] / 2 / k[0, 0]))
+    if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
+        raise LaneFinderError(f"{p}: a focal length of {k[0, 0]:g} px over {size[0]} px is a {fov:.2f} degree field "
+                              f"of view: lanefinder takes {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g}")
     if rms is not None and not (isinstance(rms, (int, float)) and math.isfinite(rms)):
         raise LaneFinderError(f"{p}: rms_px must be a number")
     return CameraModel(k, dist, (int(size[0]), int(size[1])), rms, board, views, str(p))

@@ -397,6 +397,8 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     opts = SetupOptions(lane_width_m=lane_width_m, lookahead_m=lookahead_m, bottom_fraction=bottom_fraction,
                         dash_period_m=dash_period_m)
     if video_path:
+        if not Path(video_path).is_file():
+            raise LaneFinderError(f"video not found: {video_path}")
         click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, opts)
     else:

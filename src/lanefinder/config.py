@@ -8,6 +8,7 @@ errors that name the key.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -18,6 +19,8 @@ from .errors import LaneFinderError
 __all__ = [
     "LANE_SPAN_PX",
     "LANE_WIDTH_M",
+    "MAX_FOV_DEG",
+    "MIN_FOV_DEG",
     "VIEW_SIZE_PX",
     "BatchConfig",
     "BirdseyeConfig",
@@ -59,6 +62,9 @@ LANE_WIDTH_M = 3.7
 VIEW_SIZE_PX = (400, 300)
 #: Pixels the lane spans across the default bird's-eye view, centred in it.
 LANE_SPAN_PX = 150.0
+#: The horizontal fields of view a lens may have, degrees (``camera.focal_px``, camera files):
+#: narrower or wider is a mistyped focal length, not a road camera.
+MIN_FOV_DEG, MAX_FOV_DEG = 2.0, 175.0
 
 
 def default_dst(size: tuple[int, int] = VIEW_SIZE_PX,
@@ -111,8 +117,15 @@ class CameraConfig(_Section):
     'udacity'
     """
 
-    model: str = "udacity"
+    model: Annotated[str, Field(min_length=1)] = "udacity"
     focal_px: Annotated[float, Field(gt=1, le=1e6)] | None = None
+
+    @model_validator(mode="after")
+    def _check_focal(self) -> CameraConfig:
+        if self.focal_px is not None and self.model != "none":
+            raise ValueError("focal_px is for model 'none' only (the Udacity lens and a camera file have "
+                             "their own focal length)")
+        return self
 
 
 class BirdseyeConfig(_Section):
@@ -952,15 +965,27 @@ class Config(_Section):
     events: EventsConfig = EventsConfig()
     selfcal: SelfCalConfig = SelfCalConfig()
 
+    @model_validator(mode="after")
+    def _check_field_of_view(self) -> Config:
+        f, w = self.camera.focal_px, self.birdseye.reference_size[0]
+        if f is not None:
+            fov = math.degrees(2 * math.atan(w / 2 / f))
+            if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
+                raise ValueError(f"camera.focal_px {f:g} px over {w} px (birdseye.reference_size) is a {fov:.2f} "
+                                 f"degree field of view: lanefinder takes {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g}")
+        return self
+
 
 def _format_error(e: ValidationError, source: str) -> str:
     parts = []
     for err in e.errors():
-        key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        key = ".".join(str(p) for p in err["loc"])
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
             msg = "unknown key"
-        parts.append(f"{key}: {msg}")
+        elif err["type"] == "value_error":
+            msg = msg.removeprefix("Value error, ")
+        parts.append(f"{key}: {msg}" if key else msg)  # (a check across sections names its keys)
     return f"invalid config {source}: " + "; ".join(parts)
 
 
