@@ -212,6 +212,8 @@ def page(server):
 @pytest.mark.slow
 def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
     SHOTS.mkdir(exist_ok=True)
+    failed: list[str] = []  # no request of the page's fails
+    page.on("response", lambda r: failed.append(f"{r.status} {r.url}") if r.status >= 400 else None)
     page.goto(server + "/")
     page.wait_for_selector("body[data-ready='1']")
     # Fleet view: three rows, sortable.
@@ -273,6 +275,7 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
     finally:
         saved.unlink()
     page.screenshot(path=str(SHOTS / "review_page.png"), full_page=True)
+    assert not failed, failed
     print(f"live re-render: {ms} ms on the server")
 
 
