@@ -581,7 +581,7 @@ def _summarise(results: list[dict], fps: float, cfg: Config,
                frame_size: tuple[int, int]) -> tuple[dict, list[dict]]:
     """Give a video's summary and events from its segments' results (in order)."""
     from .events import EVENT_KINDS, detect_events, event_row
-    from .pipeline import birdseye_config_used, camera_from_config
+    from .pipeline import birdseye_config_used
 
     cols: dict[str, list] = {k: [] for k in _EVENT_COLUMNS}
     for r in results:
@@ -592,10 +592,7 @@ def _summarise(results: list[dict], fps: float, cfg: Config,
     events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
     seconds = sum(r["seconds"] for r in results)
     kinds = {k: sum(e["kind"] == k for e in events) for k in EVENT_KINDS}
-    try:  # the set-up the run started from (another lens's nominal one, with no set-up of its own)
-        b = birdseye_config_used(cfg, camera_from_config(cfg, frame_size), frame_size)
-    except LaneFinderError:
-        b = cfg.birdseye
+    b = birdseye_config_used(cfg, None, frame_size)  # the set-up the run started from
     summary = {
         **lane_shares(cols["state"], cols["width_m"]), "duration_s": round(n / fps, 3) if fps else None,
         "pct_both_lines": round(100 * sum(r["both_found"] for r in results) / n, 2) if n else None,

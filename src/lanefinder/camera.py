@@ -19,7 +19,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .config import MAX_FOV_DEG, MIN_FOV_DEG
+from .config import MAX_FOV_DEG, MIN_FOV_DEG, field_of_view_deg
 from .errors import LaneFinderError
 from .io import atomic_write_text, list_images, read_image
 
@@ -506,7 +506,7 @@ def _checked_camera(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple, rms, 
         raise LaneFinderError(f"{p}: dist_coeffs must be 4, 5, 8, 12 or 14 finite numbers")
     if len(size) != 2 or not all(16 <= v <= 16384 for v in size):
         raise LaneFinderError(f"{p}: image_size must be (width, height), 16 to 16384 pixels each")
-    fov = math.degrees(2 * math.atan(size[0] / 2 / k[0, 0]))
+    fov = field_of_view_deg(k[0, 0], size[0])
     if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
         raise LaneFinderError(f"{p}: a focal length of {k[0, 0]:g} px over {size[0]} px is a {fov:.2f} degree field "
                               f"of view: lanefinder takes {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g}")

@@ -43,6 +43,7 @@ __all__ = [
     "config_from_dict",
     "default_dst",
     "dump_config",
+    "field_of_view_deg",
     "load_config",
 ]
 
@@ -65,6 +66,29 @@ LANE_SPAN_PX = 150.0
 #: The horizontal fields of view a lens may have, degrees (``camera.focal_px``, camera files):
 #: narrower or wider is a mistyped focal length, not a road camera.
 MIN_FOV_DEG, MAX_FOV_DEG = 2.0, 175.0
+
+
+def field_of_view_deg(focal_px: float, width_px: float) -> float:
+    """Give a pinhole lens's horizontal field of view.
+
+    Parameters
+    ----------
+    focal_px : float
+        Focal length, pixels.
+    width_px : float
+        Width of the frames it is given for, pixels.
+
+    Returns
+    -------
+    float
+        The field of view, degrees (compare with ``MIN_FOV_DEG`` and ``MAX_FOV_DEG``).
+
+    Examples
+    --------
+    >>> round(field_of_view_deg(640.0, 1280), 1)
+    90.0
+    """
+    return math.degrees(2 * math.atan(width_px / 2 / focal_px))
 
 
 def default_dst(size: tuple[int, int] = VIEW_SIZE_PX,
@@ -969,7 +993,7 @@ class Config(_Section):
     def _check_field_of_view(self) -> Config:
         f, w = self.camera.focal_px, self.birdseye.reference_size[0]
         if f is not None:
-            fov = math.degrees(2 * math.atan(w / 2 / f))
+            fov = field_of_view_deg(f, w)
             if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
                 raise ValueError(f"camera.focal_px {f:g} px over {w} px (birdseye.reference_size) is a {fov:.2f} "
                                  f"degree field of view: lanefinder takes {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g}")

@@ -117,7 +117,7 @@ def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int
     return make_birdseye(cam, src, np.asarray(b.dst), b.size, b.xm_per_px, b.ym_per_px)
 
 
-def birdseye_config_used(cfg: Config, camera: CameraModel, frame_size: tuple[int, int]) -> BirdseyeConfig:
+def birdseye_config_used(cfg: Config, camera: CameraModel | None, frame_size: tuple[int, int]) -> BirdseyeConfig:
     """Give the set-up a configuration puts in use for a lens and frames of one size.
 
     That is ``cfg.birdseye``, except for a config without a set-up of its own and a lens of its
@@ -137,8 +137,9 @@ def birdseye_config_used(cfg: Config, camera: CameraModel, frame_size: tuple[int
     ----------
     cfg : Config
         The configuration (``birdseye``).
-    camera : CameraModel
-        The lens model.
+    camera : CameraModel or None
+        The lens model; None: the config's (``camera.model``), and when that cannot be read,
+        ``cfg.birdseye`` (to report the set-up of a run, or draw it).
     frame_size : tuple of int
         (width, height) of the frames, pixels.
 
@@ -156,7 +157,14 @@ def birdseye_config_used(cfg: Config, camera: CameraModel, frame_size: tuple[int
     (1920, 1080)
     """
     b = cfg.birdseye
-    if b != BirdseyeConfig() or cfg.camera.model == "none" or _udacity_lens(camera):
+    if b != BirdseyeConfig() or cfg.camera.model == "none":
+        return b
+    if camera is None:
+        try:
+            camera = camera_from_config(cfg, frame_size)
+        except LaneFinderError:
+            return b
+    if _udacity_lens(camera):
         return b
     # (For a 90-degree 1080p lens the default trapezoid put the horizon 79 px off.)
     try:
@@ -464,23 +472,25 @@ class LaneFinder:
         own = still_setup(frame, self.config, self._config_birdseye)
         if own is not None:
             self.use_birdseye(own)
-            self.reset()
-            self._still_source = "estimated"
-            return replace(self.process(frame), setup="estimated")
+            return self._still_with("estimated", frame)
         if not self.config.selfcal.still_lines or search is None:
             return first
         from_lines = lines_setup(self._config_birdseye, search.left, search.right, self.config)
         if from_lines is None:
             return first
         self.use_birdseye(from_lines)
-        self.reset()
-        self._still_source = "lines"
-        second = replace(self.process(frame), setup="lines")
+        second = self._still_with("lines", frame)
         if second.lane_found and (not first.lane_found or _sureness(second) >= _sureness(first)):
             return second
         self.use_birdseye(self._config_birdseye)
         self.reset()
         return first
+
+    def _still_with(self, label: str, frame: np.ndarray) -> LaneResult:
+        """Find a still afresh with the set-up just put in use, labelled (as later frames are) with its source."""
+        self.reset()
+        self._still_source = label
+        return replace(self.process(frame), setup=label)
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""

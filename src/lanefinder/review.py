@@ -618,14 +618,9 @@ def _merged(base: Config, changes: dict[str, Any], src: list | None,
 
 def _used_birdseye(cfg: Config, frame_size: tuple[int, int] | None) -> BirdseyeConfig:
     """Give the set-up a config puts in use for frames of a size (the config's own when the size is unknown)."""
-    from .pipeline import birdseye_config_used, camera_from_config
+    from .pipeline import birdseye_config_used
 
-    if frame_size is None:
-        return cfg.birdseye
-    try:
-        return birdseye_config_used(cfg, camera_from_config(cfg, frame_size), frame_size)
-    except LaneFinderError:
-        return cfg.birdseye
+    return cfg.birdseye if frame_size is None else birdseye_config_used(cfg, None, frame_size)
 
 
 # -- the app --------------------------------------------------------------------------------------
