@@ -155,7 +155,7 @@ def test_batch_on_a_scheduler_and_worker_started_as_processes(tmp_path):
         out = subprocess.run([*CLI, "batch", str(HARDER), "-o", str(tmp_path / "out"), "--scheduler", addr,
                               "--quiet", "-c", _plumbing_toml(tmp_path)], capture_output=True, text=True, timeout=120)
         assert out.returncode == 0, out.stderr
-        assert "1 videos: 1 processed" in out.stdout
+        assert "1 video: 1 processed" in out.stdout
         assert len(rows_of(tmp_path / "out", "harder_challenge_0-4s")) == 100
     finally:
         for p in procs:

@@ -201,7 +201,8 @@ class BatchReport:
         """
         fps = self.frames / self.seconds if self.seconds else 0.0
         return [
-            f"{self.videos} videos: {self.done} processed, {self.skipped} skipped (done before, unchanged), "
+            f"{self.videos} video{'' if self.videos == 1 else 's'}: {self.done} processed, "
+            f"{self.skipped} skipped (done before, unchanged), "
             f"{self.failed} failed",
             f"redone: {self.redone_failed} that had failed, {self.redone_changed} whose content or config changed",
             f"frames: {self.frames} in {self.seconds:.1f} s ({fps:.1f} fps over the fleet)",

@@ -219,9 +219,13 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 
     cfg = _config(config_path)
     paths = list_images(images)
-    click.echo(f"{'image':<22} {'left':<5} {'right':<5} {'radius m':>9} {'offset m':>9} {'width m':>8} {'ms':>6}")
+    shown = []
 
     def show(row: dict) -> None:
+        if not shown:  # the header with the first row: output names are checked before it
+            click.echo(f"{'image':<22} {'left':<5} {'right':<5} {'radius m':>9} {'offset m':>9} {'width m':>8} "
+                       f"{'ms':>6}")
+            shown.append(True)
         click.echo(f"{Path(row['image']).name:<22} {_line_word(row, 'left'):<5} {_line_word(row, 'right'):<5} "
                    f"{_cell(row['radius_m'], '9.0f'):>9} {_cell(row['offset_m'], '9.3f'):>9} "
                    f"{_cell(row['width_m'], '8.3f'):>8} {row['ms']:>6.1f}")
@@ -399,7 +403,8 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     if video_path:
         if not Path(video_path).is_file():
             raise LaneFinderError(f"video not found: {video_path}")
-        click.echo(f"looking for straight-road frames in {video_path} ...")
+        click.echo(f"looking for straight-road frames among {opts.video_candidates} spread over {video_path} "
+                   f"(numbered 1-{opts.video_candidates} below) ...")
         images = straight_frames_from_video(video_path, opts)
     else:
         images = [read_image(p) for p in paths]
