@@ -55,3 +55,15 @@ def test_ridge_finds_yellow_on_pale_concrete():
     road[:, 150:158] = (40, 190, 220)  # yellow paint, little brighter than the concrete
     mask = threshold(road, ThresholdConfig(), XM)
     assert mask[:, 150:158].mean() > 0.9 and mask[:, :140].sum() == 0
+
+
+def test_a_cap_on_the_relative_test_finds_faint_white_on_light_concrete():
+    # Worn white paint on light concrete (grey 180) is 20 levels lighter: under the relative test
+    # (0.18 of the road, 32 levels), over a cap of 16 (the second look for faint paint).
+    road = np.full((100, 300, 3), 180, np.uint8)
+    road[:, 150:156] = 200
+    plain = ThresholdConfig()
+    capped = ThresholdConfig.model_validate({"ridge": {"rel_contrast_max": plain.ridge.faint_contrast_max}})
+    assert threshold(road, plain, XM).sum() == 0
+    mask = threshold(road, capped, XM)
+    assert mask[:, 150:156].mean() > 0.9 and mask[:, :140].sum() == 0

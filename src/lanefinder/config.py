@@ -284,10 +284,15 @@ class RidgeConfig(_Section):
         Least lightness above the road on both sides (0-255).
     rel_contrast : float
         Least lightness above the road as a fraction of the road's own lightness.
-    yellow_min_contrast : int
-        Least yellowness (red - blue) above the road on both sides.
-    yellow_min : int
-        Least yellowness of a yellow marking pixel.
+    rel_contrast_max : int
+        ... but never more than this many grey levels (0-255; 255: no cap).
+    faint_contrast_max : int
+        A second look for faint paint: where no line is found, the view is thresholded again
+        with ``rel_contrast_max`` at this (worn paint on light concrete is only 15-25 grey
+        levels lighter than the road, less than ``rel_contrast`` of it), and the lines it finds
+        are taken when each is at least ``faint_confidence`` sure; 255 turns it off.
+    faint_confidence : float
+        The least confidence (0-1) of a line the second look finds.
     noise_factor : float
         Least lightness above the road as a multiple of the texture around the pixel (the mean
         top-hat of a patch ``noise_patch_m`` wide and a tenth of the view tall: rough asphalt and
@@ -304,6 +309,9 @@ class RidgeConfig(_Section):
     width_m: PositiveFloat = 0.4
     min_contrast: Byte = 12
     rel_contrast: Annotated[float, Field(ge=0)] = 0.18
+    rel_contrast_max: Byte = 255
+    faint_contrast_max: Byte = 16
+    faint_confidence: Fraction = 0.4
     yellow_min_contrast: Byte = 18
     yellow_min: Byte = 30
     noise_factor: Annotated[float, Field(ge=0, le=20)] = 5.0

@@ -24,7 +24,7 @@ from .farfield import FarView, follow_line, make_farview
 from .geometry import Scale, lane_geometry, poly_x
 from .lane import SIDES, LaneResult
 from .limits import check_memory
-from .measure import Measurer, measure
+from .measure import Measured, Measurer, measure
 from .search import Pixels
 from .selfcal import SelfCalibrator, lines_setup, still_setup
 from .selfcal import wanted as selfcal_wanted
@@ -196,6 +196,11 @@ def _default_mount() -> tuple[float, float, float]:
             setup_of(be)[1])
 
 
+def _confidences(measured: Measured) -> tuple[float, float]:
+    """Each measured line's confidence, 0 for a line not measured."""
+    return tuple(0.0 if line is None else line.confidence for line in measured.lines)  # type: ignore[return-value]
+
+
 def _sureness(result: LaneResult) -> float:
     """Give the mean of a result's two line confidences (to choose between two set-ups of one still)."""
     return (result.left.confidence + result.right.confidence) / 2
@@ -259,6 +264,7 @@ class LaneFinder:
         self._measurer: Measurer | None = None
         self._farview: tuple[BirdsEye, FarView | None] | None = None
         self._far_cfg: tuple[Config, ThresholdConfig] | None = None
+        self._faint_cfg: tuple[Config, ThresholdConfig] | None = None
         self._config_birdseye: BirdsEye | None = None
         self._relaxed_measurer: Measurer | None = None
         self.last_birdseye: BirdsEye | None = None
@@ -492,6 +498,16 @@ class LaneFinder:
         self._still_source = label
         return replace(self.process(frame), setup=label)
 
+    def _faint_threshold(self) -> ThresholdConfig | None:
+        """Give the threshold settings of the second look for faint paint (None: no second look), made once."""
+        t = self.config.threshold
+        if t.strategy != "ridge" or t.ridge.faint_contrast_max >= min(255, t.ridge.rel_contrast_max):
+            return None
+        if self._faint_cfg is None or self._faint_cfg[0] is not self.config:
+            ridge = t.ridge.model_copy(update={"rel_contrast_max": t.ridge.faint_contrast_max})
+            self._faint_cfg = (self.config, t.model_copy(update={"ridge": ridge}))
+        return self._faint_cfg[1]
+
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
         if self._far_cfg is None or self._far_cfg[0] is not self.config:
@@ -571,6 +587,14 @@ class LaneFinder:
         self.birdseye(be.frame_size)
         m = measurer or self.measurer
         measured = measure(binary, view, self.track, m, Pixels.of(binary))
+        if view is not None and max(_confidences(measured)) == 0 and (faint := self._faint_threshold()) is not None:
+            # No line at all: a second look for faint paint (worn paint on light concrete), whose
+            # lines are taken when each it finds is at least faint_confidence sure.
+            binary2 = threshold(view, faint, be.xm_per_px)
+            again = measure(binary2, view, self.track, m, Pixels.of(binary2))
+            found = [c for c in _confidences(again) if c > 0]
+            if found and min(found) >= self.config.threshold.ridge.faint_confidence:
+                measured, binary = again, binary2
         self.track, verdict = step(self.track, measured.lines, measured.blind, m.rules)
         debug = {"binary": binary, "search": measured.search} if self.keep_debug else {}
         return self._result(verdict, (*measured.reasons, *verdict.reasons), debug)

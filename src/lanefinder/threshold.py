@@ -174,8 +174,11 @@ def ridge(image: np.ndarray, cfg: RidgeConfig, xm_per_px: float) -> np.ndarray:
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (width, 1))
     road = cv2.morphologyEx(light, cv2.MORPH_OPEN, kernel)
     top = cv2.subtract(light, road)
-    # contrast > max(min_contrast, rel_contrast * road): one fused integer comparison.
-    need = cv2.max(cv2.convertScaleAbs(road, alpha=cfg.rel_contrast), int(cfg.min_contrast))
+    # contrast > max(min_contrast, min(rel_contrast * road, rel_contrast_max)): integer images throughout.
+    rel = cv2.convertScaleAbs(road, alpha=cfg.rel_contrast)
+    if cfg.rel_contrast_max < 255:
+        rel = cv2.min(rel, int(cfg.rel_contrast_max))
+    need = cv2.max(rel, int(cfg.min_contrast))
     if cfg.noise_factor > 0:
         # The texture around each pixel: the mean top-hat over a patch (capped, so that a
         # marking inside the patch raises it little), times noise_factor.
