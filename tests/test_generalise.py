@@ -26,8 +26,8 @@ def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int,
     folder = write_sequence(scenario, frames, tmp_path, seed=seed, camera=camera, randomise=True)
     cfg = load_config(folder / "config.toml")
     if faint_contrast_max is not None:
-        cfg = cfg.model_copy(update={"threshold": cfg.threshold.model_validate(
-            {"ridge": {"faint_contrast_max": faint_contrast_max}})})
+        ridge = cfg.threshold.ridge.model_copy(update={"faint_contrast_max": faint_contrast_max})
+        cfg = cfg.model_copy(update={"threshold": cfg.threshold.model_copy(update={"ridge": ridge})})
     process_video(folder / "video.mp4", None, cfg, telemetry=folder / "t.jsonl", progress=False)
     return evaluate(read_ground_truth(folder / "gt.jsonl"), read_predictions(folder / "t.jsonl"))
 

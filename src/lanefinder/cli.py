@@ -403,9 +403,9 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     if video_path:
         if not Path(video_path).is_file():
             raise LaneFinderError(f"video not found: {video_path}")
-        click.echo(f"looking for straight-road frames among {opts.video_candidates} spread over {video_path} "
-                   f"(numbered 1-{opts.video_candidates} below) ...")
+        click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, opts)
+        click.echo(f"{len(images)} frames sampled from the video (numbered 1-{len(images)} below)")
     else:
         images = [read_image(p) for p in paths]
     ref = "none"

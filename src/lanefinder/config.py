@@ -287,12 +287,17 @@ class RidgeConfig(_Section):
     rel_contrast_max : int
         ... but never more than this many grey levels (0-255; 255: no cap).
     faint_contrast_max : int
-        A second look for faint paint: where no line is found, the view is thresholded again
+        A second look for faint paint: where no line is found (none at least
+        ``tracking.min_confidence`` sure), the view is thresholded again
         with ``rel_contrast_max`` at this (worn paint on light concrete is only 15-25 grey
         levels lighter than the road, less than ``rel_contrast`` of it), and the lines it finds
         are taken when each is at least ``faint_confidence`` sure; 255 turns it off.
     faint_confidence : float
         The least confidence (0-1) of a line the second look finds.
+    yellow_min_contrast : int
+        Least yellowness (red - blue) above the road on both sides.
+    yellow_min : int
+        Least yellowness of a yellow marking pixel.
     noise_factor : float
         Least lightness above the road as a multiple of the texture around the pixel (the mean
         top-hat of a patch ``noise_patch_m`` wide and a tenth of the view tall: rough asphalt and

@@ -567,6 +567,11 @@ class LaneFinder:
                        measurer: Measurer | None = None) -> LaneResult:
         """Measure and track on a bird's-eye binary.
 
+        With ``view``, a frame whose binary gives no line at least ``tracking.min_confidence``
+        sure is thresholded again for faint paint (``threshold.ridge.faint_contrast_max``), and
+        that binary replaces ``binary`` when its lines are taken (the result's debug binary is
+        the one used).  The far field is thresholded as before.
+
         Parameters
         ----------
         binary : (H, W) uint8 ndarray
@@ -587,8 +592,9 @@ class LaneFinder:
         self.birdseye(be.frame_size)
         m = measurer or self.measurer
         measured = measure(binary, view, self.track, m, Pixels.of(binary))
-        if view is not None and max(_confidences(measured)) == 0 and (faint := self._faint_threshold()) is not None:
-            # No line at all: a second look for faint paint (worn paint on light concrete), whose
+        if (view is not None and max(_confidences(measured)) < self.config.tracking.min_confidence
+                and (faint := self._faint_threshold()) is not None):
+            # No line to take: a second look for faint paint (worn paint on light concrete), whose
             # lines are taken when each it finds is at least faint_confidence sure.
             binary2 = threshold(view, faint, be.xm_per_px)
             again = measure(binary2, view, self.track, m, Pixels.of(binary2))

@@ -196,8 +196,9 @@ def _setup_lines(st: SetupState) -> list[str]:
         return [f"set-up: self-calibration found too few straight-road frames; the set-up the first frame gave "
                 f"alone was used: horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road "
                 "(run `lanefinder setup` for this camera)"]
-    of = f" (of {st.quality.frames_offered} accepted; the rest disagreed)" if st.quality is not None \
-        and st.quality.frames_offered > st.frames else ""
+    q = st.quality
+    of = (f" (of {q.frames_offered} accepted; the rest refused as outliers or curving)"
+          if q is not None and q.frames_offered > st.frames else "")
     out = [f"set-up: self-calibrated from {st.frames} straight-road frames{of}, {st.updates} change(s) of the "
            f"set-up in use: horizon row "
            f"{st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length {st.focal_px:.0f} px"]
