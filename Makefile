@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test test-fast lint bench eval eval-tune eval-unknown eval-events stills check-videos clean
+.PHONY: install demo test test-fast lint bench eval eval-tune eval-unknown eval-events stills stills-synthetic check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -54,6 +54,10 @@ eval-events: $(STAMP)
 # Blind stills (one a second) against the tracked videos: the single-image path.
 stills: $(STAMP)
 	$(BIN)/python scripts/stills_vs_video.py
+
+# Blind stills of the held-out synthetic scenes (frames 10 and 35, default set-up) against their truth.
+stills-synthetic: $(STAMP)
+	$(BIN)/python scripts/stills_synthetic.py --seeds 101 102 --out output/eval
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py
