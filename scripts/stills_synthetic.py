@@ -38,6 +38,7 @@ def _sequence(name: str, seed: int, folder: Path) -> Path:
         m = json.loads(meta.read_text())
         if m.get("seed") == seed and m.get("frames") == FRAMES and "appearance" in m:
             return folder
+    print(f"  rendering {folder} ...", flush=True)
     return write_sequence(name, FRAMES, folder, seed, randomise=True)
 
 
@@ -95,8 +96,9 @@ def main() -> int:
         print(f"{name:<15} {len(got):>6} {report[name]['accuracy'] or 0:>9.4f}", flush=True)
     mean = sum(scores) / len(scores) if scores else 0.0
     print(f"{'all':<15} {len(scores):>6} {mean:>9.4f}")
-    print(f"\nframes {', '.join(map(str, a.at))} of seeds {', '.join(map(str, a.seeds))}, blind, default set-up; "
-          f"{no_paint} frame(s) whose truth shows no paint left out; report: {a.json}")
+    settings = f"the settings of {a.config}" if a.config else "the default settings"
+    print(f"\nframes {', '.join(map(str, a.at))} of seeds {', '.join(map(str, a.seeds))}, blind, {settings}, "
+          f"no set-up of their own; {no_paint} frame(s) whose truth shows no paint left out; report: {a.json}")
     a.json.parent.mkdir(parents=True, exist_ok=True)
     report["all"] = {"stills": len(scores), "accuracy": mean, "no_paint": no_paint}
     a.json.write_text(json.dumps(report, indent=2) + "\n")

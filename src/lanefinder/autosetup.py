@@ -644,8 +644,8 @@ def frame_lines(undistorted: np.ndarray, opts: SetupOptions) -> FrameLines:
     tol = max(1.5, opts.ransac_tol_px * w / 1280)
     vp, inliers = vanishing_point(line_segments(gray, opts), opts.ransac_iterations, tol)
     if not (0 <= vp[0] < w and 0 < vp[1] < h * opts.max_vp_fraction):
-        raise LaneFinderError(f"the lane lines meet at ({vp[0]:.0f}, {vp[1]:.0f}), not within the frame's width "
-                              f"between rows 0 and {h * opts.max_vp_fraction:.0f}: not a straight road ahead")
+        raise LaneFinderError(f"the lane lines meet at ({vp[0]:.0f}, {vp[1]:.1f}), not within the frame's width "
+                              f"above row {h * opts.max_vp_fraction:.1f}: not a straight road ahead")
     y_b = opts.bottom_fraction * (h - 1)
     hist, centres = _ray_votes(undistorted, vp, y_b, opts)
     # The ego lines: the strongest rays within a plausible lane of the middle on each side.

@@ -197,7 +197,7 @@ def _setup_lines(st: SetupState) -> list[str]:
                 f"alone was used: horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road "
                 "(run `lanefinder setup` for this camera)"]
     q = st.quality
-    of = (f" (of {q.frames_offered} accepted; the rest refused as outliers or curving)"
+    of = (f" ({q.frames_offered} offered, {q.frames_offered - st.frames} refused as outliers or curving)"
           if q is not None and q.frames_offered > st.frames else "")
     out = [f"set-up: self-calibrated from {st.frames} straight-road frames{of}, {st.updates} change(s) of the "
            f"set-up in use: horizon row "
