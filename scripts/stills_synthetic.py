@@ -22,24 +22,22 @@ from pathlib import Path
 
 from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
-from lanefinder.evaluate import bench_frame
 from lanefinder.pipeline import LaneFinder
-from lanefinder.synth import SCENARIOS, write_sequence
-from lanefinder.telemetry import lane_row
+from lanefinder.synth import SCENARIOS
 from lanefinder.video import frames
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling scripts, also when loaded from a file
+from eval_synthetic import sequence
+from stills_vs_video import find_still
 
 FRAMES = 50  # the sequences of `make eval`
 
 
 def _sequence(name: str, seed: int, folder: Path) -> Path:
-    """The 50-frame randomised sequence in ``folder``, rendered when it is not there."""
-    meta = folder / "scenario.json"
-    if meta.is_file() and (folder / "gt.jsonl").is_file():
-        m = json.loads(meta.read_text())
-        if m.get("seed") == seed and m.get("frames") == FRAMES and "appearance" in m:
-            return folder
-    print(f"  rendering {folder} ...", flush=True)
-    return write_sequence(name, FRAMES, folder, seed, randomise=True)
+    """The 50-frame randomised sequence in ``folder``, rendered as `make eval` renders it when missing."""
+    if not (folder / "gt.jsonl").is_file():
+        print(f"  rendering {folder} ...", flush=True)
+    return sequence(name, FRAMES, seed, folder, randomise=True, reuse=True)
 
 
 def score(folder: Path, at: list[int], finder: LaneFinder) -> list[float | None]:
@@ -51,13 +49,7 @@ def score(folder: Path, at: list[int], finder: LaneFinder) -> list[float | None]
             continue
         gt = truth[f.index]
         gt_lanes = [gt[k] for k in ("left_x", "right_x") if any(v >= 0 for v in gt[k])]
-        if not gt_lanes:
-            out.append(None)
-            continue
-        result = finder.process_still(f.image)
-        row = lane_row(result, finder.birdseye((f.image.shape[1], f.image.shape[0])))
-        lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
-        out.append(bench_frame(lanes, gt_lanes, gt["h_samples"])[0])
+        out.append(find_still(finder, f.image, gt, gt_lanes)["accuracy"] if gt_lanes else None)
     return out
 
 

@@ -52,7 +52,7 @@ def own_setup(src: Path, cfg: Config) -> Config:
     return cfg.model_copy(update={"camera": own.camera, "birdseye": own.birdseye})
 
 
-def _still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
+def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
     """Find one still blind: whether it has a lane, whether it agrees, its accuracy, set-up and checks."""
     result = finder.process_still(image)
     row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])))
@@ -85,7 +85,7 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
         n += 1
         record: dict = {"frame": f.index, "time_s": round(f.index / fps, 2)}
         for name, finder in finders.items():
-            s = record[name] = _still(finder, f.image, ref, ref_lanes)
+            s = record[name] = find_still(finder, f.image, ref, ref_lanes)
             c = counts[name]
             c["with_lane"] += s["lane"]
             c["agree"] += s["agrees"]

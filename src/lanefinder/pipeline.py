@@ -196,9 +196,9 @@ def _default_mount() -> tuple[float, float, float]:
             setup_of(be)[1])
 
 
-def _confidences(measured: Measured) -> tuple[float, float]:
+def _confidences(measured: Measured) -> list[float]:
     """Each measured line's confidence, 0 for a line not measured."""
-    return tuple(0.0 if line is None else line.confidence for line in measured.lines)  # type: ignore[return-value]
+    return [0.0 if line is None else line.confidence for line in measured.lines]
 
 
 def _sureness(result: LaneResult) -> float:
@@ -501,7 +501,7 @@ class LaneFinder:
     def _faint_threshold(self) -> ThresholdConfig | None:
         """Give the threshold settings of the second look for faint paint (None: no second look), made once."""
         t = self.config.threshold
-        if t.strategy != "ridge" or t.ridge.faint_contrast_max >= min(255, t.ridge.rel_contrast_max):
+        if t.strategy != "ridge" or t.ridge.faint_contrast_max >= t.ridge.rel_contrast_max:
             return None
         if self._faint_cfg is None or self._faint_cfg[0] is not self.config:
             ridge = t.ridge.model_copy(update={"rel_contrast_max": t.ridge.faint_contrast_max})
