@@ -2,8 +2,8 @@
 
     python scripts/check_videos.py [--videos DIR] [--out output/check] [--debug] [--only NAME]
 
-Per video: frames; % of frames with both lines tracked (both measured and accepted, or
-held by the tracker); lane width mean and std (m); the largest frame-to-frame offset jump (m);
+Per video: frames; % of frames with a lane shown (measured, or held by the tracker) and %
+with both lines measured and accepted; lane width mean and std (m); the largest frame-to-frame offset jump (m);
 the median radius over each curve; frames per second end to end.  Outputs (annotated video,
 telemetry, contact sheet) go under --out.  Exit status 2 when the videos are absent.
 """

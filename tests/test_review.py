@@ -298,6 +298,14 @@ def test_a_video_review_serves_no_sibling_and_answers_only_local_names(tmp_path)
 
     r = client.post("/api/config/save", content=chunks(), headers={"content-type": "application/json"})
     assert r.status_code == 413 and not list(tmp_path.glob("review-config*"))
+    # A video whose telemetry lies in an output folder: a saved config goes beside the telemetry,
+    # not into the video's (input) folder.
+    out = tmp_path / "out"
+    out.mkdir()
+    shutil.move(tmp_path / "h.csv", out / "h.csv")
+    review = Review(tmp_path / "h.mp4", telemetry=out / "h.csv")
+    assert review.save_config(review.config) == (out / "review-config.toml").resolve()
+    assert not list(tmp_path.glob("review-config*"))
 
 
 def test_telemetry_without_frame_numbers_is_one_line(tmp_path):

@@ -815,8 +815,17 @@ class SelfCalConfig(_Section):
     still_work_width_px : int
         A still is looked at no wider than this, px (one frame has no others to outvote a noisy
         reading: at 960, test1.jpg, a curve, read a horizon 23 px off and was taken).
+    still_horizon : bool
+        A still that gives no set-up of its own (a curving road, or a camera height outside
+        ``still_height_m``: the ego lines misread) but whose road lines meet on a vanishing
+        point is found again with the config's set-up pitched to that point's row
+        (:func:`lanefinder.selfcal.horizon_setup`; the height and the yaw kept) ...
+    still_horizon_margin : float
+        ... and that result is kept when it has a lane and its lines' mean confidence is at
+        least this much higher (or the config's set-up shows no lane).
     still_lines : bool
-        A still that gives no set-up of its own (a curving road, say) is found again with the
+        A still that gives no set-up of its own (a curving road, say), and whose horizon's
+        set-up was not kept, is found again with the
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
         that result is kept when it has a lane and its lines are no less sure.
     first_frame : bool
@@ -861,6 +870,8 @@ class SelfCalConfig(_Section):
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
     still_work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
+    still_horizon: bool = True
+    still_horizon_margin: Fraction = 0.05
     still_lines: bool = True
     first_frame: bool = True
     unsure_parallel: Fraction = 0.0

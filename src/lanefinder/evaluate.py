@@ -232,8 +232,8 @@ class EvalReport:
         def f(v: float | None, fmt: str) -> str:
             return "-" if v is None else format(v, fmt)
 
-        head = f"{'':<14} {'frames':>6} {'accuracy':>9} {'FP':>6} {'FN':>6} {'offset med':>10} {'offset p90':>10} " \
-               f"{'1/R med':>9} {'R rel med':>9} {'catastr.':>8}"
+        head = f"{'sequence':<14} {'frames':>6} {'accuracy':>9} {'FP':>6} {'FN':>6} {'offset med':>10} " \
+               f"{'offset p90':>10} {'1/R med':>9} {'R rel med':>9} {'catastr.':>8}"
         row = (f"{name:<14} {self.frames:>6} {self.accuracy:>9.4f} {self.fp:>6.3f} {self.fn:>6.3f} "
                f"{f(self.offset_err_median_m, '.3f'):>10} {f(self.offset_err_p90_m, '.3f'):>10} "
                f"{f(self.curvature_err_median, '.2e'):>9} {f(self.radius_rel_err_median, '.3f'):>9} "
@@ -260,7 +260,7 @@ class EvalReport:
             return "-" if v is None else format(v, fmt)
 
         bands = list(self.band_accuracy) or [_band_name(b) for b in BANDS_M]
-        head = f"{'':<14} " + " ".join(f"{'acc ' + b + ' m':>12}" for b in bands) + \
+        head = f"{'sequence':<14} " + " ".join(f"{'acc ' + b + ' m':>12}" for b in bands) + \
             f" {'lat 6m med':>10} {'lat 6m p90':>10} {'lat 20m med':>11} {'lat 20m p90':>11} {'no lane':>7}"
         row = f"{name:<14} " + " ".join(f"{f(self.band_accuracy.get(b), '.4f'):>12}" for b in bands) + \
             f" {f(self.lateral_err_6m_median, '.3f'):>10} {f(self.lateral_err_6m_p90, '.3f'):>10}" \

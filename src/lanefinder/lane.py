@@ -112,7 +112,9 @@ class LaneResult:
         Where the bird's-eye set-up came from: ``config``, ``default`` (self-calibration
         has no estimate yet), ``first-frame`` (a video's first frame gave it alone, until the
         estimate), ``estimated`` (see :mod:`lanefinder.selfcal`) or, for a still,
-        ``lines`` (read from the lines found in it: :func:`lanefinder.selfcal.lines_setup`).
+        ``horizon`` (the default pitched to where its road lines meet:
+        :func:`lanefinder.selfcal.horizon_setup`) or ``lines`` (read from the lines found in
+        it: :func:`lanefinder.selfcal.lines_setup`).
     binary : ndarray or None
         The bird's-eye binary (uint8 0/1), kept for debugging views only.
     search : SearchResult or None

@@ -26,7 +26,7 @@ from .lane import SIDES, LaneResult
 from .limits import check_memory
 from .measure import Measured, Measurer, measure
 from .search import Pixels
-from .selfcal import SelfCalibrator, lines_setup, still_setup
+from .selfcal import SelfCalibrator, lines_setup, look_at_still
 from .selfcal import wanted as selfcal_wanted
 from .threshold import rowwise, threshold
 from .tracking import Track, Verdict, step
@@ -421,13 +421,20 @@ class LaneFinder:
         With a config that has no set-up of its own (:func:`lanefinder.selfcal.wanted`) and
         ``selfcal.stills``, a still whose lane does not read as curving tighter than
         ``selfcal.still_min_radius_m`` (or shows no lane) with the config's set-up is looked at as a one-frame video
-        (:func:`lanefinder.selfcal.still_setup`), and found again with its own set-up when that
-        gives one.  When it gives none and ``selfcal.still_lines``, the still is found again
-        with the set-up the lines found in it give (:func:`lanefinder.selfcal.lines_setup`),
-        kept when that shows a lane whose lines are no less sure.  That set-up stays in use
-        (:meth:`birdseye` gives it, to draw the result, and :meth:`process` labels its frames
-        with it) until the next still; call :meth:`reset` and :meth:`use_birdseye` before using
-        the finder for a video.
+        (:func:`lanefinder.selfcal.look_at_still`), and found again with its own set-up when that
+        gives one.  When it gives none, two other set-ups are tried in turn, and the first whose
+        result has a lane whose lines are surer than with the config's set-up (or that has a lane
+        where that one has none) is kept:
+
+        - with ``selfcal.still_horizon``, the config's set-up with the horizon moved to the row
+          the still's road lines meet on (:func:`lanefinder.selfcal.horizon_setup`), kept when
+          its lines are surer by ``selfcal.still_horizon_margin``;
+        - with ``selfcal.still_lines``, the set-up the lines found in it give
+          (:func:`lanefinder.selfcal.lines_setup`), kept when they are no less sure.
+
+        That set-up stays in use (:meth:`birdseye` gives it, to draw the result, and
+        :meth:`process` labels its frames with it) until the next still; call :meth:`reset`
+        and :meth:`use_birdseye` before using the finder for a video.
 
         Parameters
         ----------
@@ -438,8 +445,9 @@ class LaneFinder:
         -------
         LaneResult
             As :meth:`process`; ``setup`` is ``estimated`` when the still's own set-up was used,
-            ``lines`` when the set-up its lines give was, ``default`` when neither gave one,
-            ``config`` when the config has a set-up or ``selfcal.stills`` is off.
+            ``horizon`` when its horizon's was, ``lines`` when the set-up its lines give was,
+            ``default`` when none was, ``config`` when the config has a set-up or
+            ``selfcal.stills`` is off.
 
         Raises
         ------
@@ -455,7 +463,8 @@ class LaneFinder:
         """
         self.reset()
         self._still_source = None
-        if not (selfcal_wanted(self.config) and self.config.selfcal.stills):
+        sc = self.config.selfcal
+        if not (selfcal_wanted(self.config) and sc.stills):
             return self.process(frame)
         _check_frame(frame)
         size = (frame.shape[1], frame.shape[0])
@@ -465,7 +474,7 @@ class LaneFinder:
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
         keep = self.keep_debug
-        self.keep_debug = keep or self.config.selfcal.still_lines  # the lines' pixels, for lines_setup
+        self.keep_debug = keep or sc.still_lines  # the lines' pixels, for lines_setup
         try:
             first = replace(self.process(frame), setup="default")
         finally:
@@ -473,23 +482,31 @@ class LaneFinder:
         search = first.search
         if not keep:
             first = replace(first, binary=None, search=None)
-        if first.lane_found and abs(first.curvature_per_m) * self.config.selfcal.still_min_radius_m > 1:
+        if first.lane_found and abs(first.curvature_per_m) * sc.still_min_radius_m > 1:
             return first  # a curving road: one frame's vanishing point and lines are not to be trusted
-        own = still_setup(frame, self.config, self._config_birdseye)
-        if own is not None:
-            self.use_birdseye(own)
+        look = look_at_still(frame, self.config, self._config_birdseye)
+        if look.own is not None:
+            self.use_birdseye(look.own)
             return self._still_with("estimated", frame)
-        if not self.config.selfcal.still_lines or search is None:
-            return first
-        from_lines = lines_setup(self._config_birdseye, search.left, search.right, self.config)
-        if from_lines is None:
-            return first
-        self.use_birdseye(from_lines)
-        second = self._still_with("lines", frame)
-        if second.lane_found and (not first.lane_found or _sureness(second) >= _sureness(first)):
-            return second
-        self.use_birdseye(self._config_birdseye)
-        self.reset()
+        tries = []  # (label, the set-up or a function giving it, how much surer its lines must be)
+        if sc.still_horizon and look.horizon is not None:
+            tries.append(("horizon", look.horizon, sc.still_horizon_margin))
+        if sc.still_lines and search is not None:
+            tries.append(("lines", lambda: lines_setup(self._config_birdseye, search.left, search.right,
+                                                       self.config), 0.0))
+        tried = False
+        for label, setup, margin in tries:
+            be = setup() if callable(setup) else setup
+            if be is None:
+                continue
+            tried = True
+            self.use_birdseye(be)
+            other = self._still_with(label, frame)
+            if other.lane_found and (not first.lane_found or _sureness(other) >= _sureness(first) + margin):
+                return other
+        if tried:
+            self.use_birdseye(self._config_birdseye)
+            self.reset()
         return first
 
     def _still_with(self, label: str, frame: np.ndarray) -> LaneResult:

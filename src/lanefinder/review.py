@@ -285,6 +285,9 @@ class Review:
     ----------
     root : Path
         The folder whose files may be served.
+    out_dir : Path
+        Where a saved config goes: the batch output folder, or the folder of the video's
+        telemetry (its outputs; the video's own folder may be an input folder).
     mode : str
         ``fleet`` or ``video``.
     videos : dict of str to VideoSource
@@ -320,6 +323,9 @@ class Review:
             self.videos = {p.stem: _single_video(p.resolve(), telemetry, self.config)}
         else:
             raise LaneFinderError(f"not found: {p}")
+        self.path = p.resolve()
+        tele = [t for v in self.videos.values() for t in v.telemetry]
+        self.out_dir = tele[0].parent if self.mode == "video" and tele else self.root
         self.inputs = {v.source for v in self.videos.values() if v.source} | \
             {t for v in self.videos.values() for t in v.telemetry} | ({self.config_path} if self.config_path else set())
 
@@ -344,7 +350,7 @@ class Review:
         return self.videos[video_id]
 
     def save_config(self, cfg: Config) -> Path:
-        """Write ``cfg`` as TOML next to the outputs, atomically, never over an input.
+        """Write ``cfg`` as TOML next to the outputs (``out_dir``), atomically, never over an input.
 
         Parameters
         ----------
@@ -358,7 +364,7 @@ class Review:
             name is an input).
         """
         for i in range(1, 100):
-            path = self.root / ("review-config.toml" if i == 1 else f"review-config-{i}.toml")
+            path = self.out_dir / ("review-config.toml" if i == 1 else f"review-config-{i}.toml")
             if path.resolve() not in self.inputs and not path.is_symlink():
                 break
         atomic_write_text(path, dump_config(cfg, "toml"))
@@ -892,7 +898,8 @@ def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print)
     except (OSError, OverflowError) as e:
         raise LaneFinderError(f"cannot listen on {host}:{port}: {getattr(e, 'strerror', None) or e}") from None
     shown = sock.getsockname()[1]
-    echo(f"lanefinder review of {review.root} ({review.mode}, {len(review.videos)} videos): "
+    n = len(review.videos)
+    echo(f"lanefinder review of {review.path} ({review.mode}, {n} video{'s' if n != 1 else ''}): "
          f"http://{'[' + host + ']' if ':' in host else host}:{shown}/  (Ctrl-C to stop)")
     hosts = None if host in ("127.0.0.1", "localhost", "::1") else ("*",)
     config = uvicorn.Config(create_app(review, hosts), log_level="warning")
