@@ -200,6 +200,28 @@ def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
     assert len(keys) == len(set(keys)) == 300
 
 
+def test_ctrl_c_stops_a_batch_in_one_line(tmp_path):
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    for name in ("a", "b", "c"):
+        shutil.copy(HARDER, inputs / f"{name}.mp4")
+    out = tmp_path / "out"
+    proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "2", "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        assert _wait(lambda: (out / "manifest.json").exists(), 120)
+        time.sleep(0.5)
+        os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: to every process of the group
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate(timeout=30)
+    # Before: each local worker died printing a traceback, and so did distributed's clean-up.
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["lanefinder: error: interrupted"], err
+
+
 def test_bad_batch_inputs_are_one_line(tmp_path):
     out = subprocess.run([*CLI, "batch", str(tmp_path / "missing"), "-o", str(tmp_path / "o")],
                          capture_output=True, text=True, timeout=60)

@@ -142,3 +142,50 @@ def test_config_that_is_not_toml(tmp_path):
 
 def test_bad_board_argument(tmp_path):
     assert_one_line_error(run("calibrate", str(CAL), "--board", "nine", "-o", str(tmp_path / "c.json")), "--board")
+
+
+def _camera_file(tmp_path: Path, **change) -> Path:
+    from lanefinder.camera import save_camera, udacity_camera
+
+    path = tmp_path / "cam.json"
+    save_camera(udacity_camera(), path)
+    d = json.loads(path.read_text())
+    d.update(change)
+    path.write_text(json.dumps(d))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        # scales so fine that the threshold's filters would be millions of pixels wide (it hung)
+        (["image", str(TEST_IMAGES / "test1.jpg"), "-o", "out", "-c", "tiny.toml"], "birdseye.xm_per_px"),
+        # files the tool would write and -c could not read
+        (["config", "--default", "-o", "c.txt"], "not c.txt"),
+        (["config", "--default", "--format", "json", "-o", "c.toml"], "--format json does not suit c.toml"),
+        (["setup", "--straight", str(TEST_IMAGES / "straight_lines1.jpg"), "-o", "s.txt"], "not s.txt"),
+        (["config", "--check", "."], "is a folder"),
+        # a plot under a name whose format it is not, and a table that is not telemetry
+        (["plot", "t.csv", "-o", "p.jpg"], "not p.jpg"),
+        (["plot", "ab.csv", "-o", "p.png"], "not lanefinder telemetry"),
+        (["eval", "--gt", "gt.jsonl", "--pred", "empty.csv"], "holds no predictions"),
+        # a lens whose distortion shrinks the frame to a point, and frames too large to render
+        (["synth", "--frames", "1", "--camera", "cam.json", "-o", "seq"], "dist_coeffs do not describe a lens"),
+        (["synth", "--frames", "1", "--camera", "big.json", "-o", "seq"], "needs about"),
+    ],
+)
+def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, args, needle):
+    (tmp_path / "tiny.toml").write_text("[birdseye]\nxm_per_px = 1e-9\n")
+    (tmp_path / "t.csv").write_text("frame,time_s,radius_m\n0,0.0,500\n")
+    (tmp_path / "ab.csv").write_text("a,b\n1,2\n")
+    (tmp_path / "empty.csv").write_text("")
+    (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],
+                                                   "right_x": [900]}) + "\n")
+    _camera_file(tmp_path, dist_coeffs=[1e9, 0, 0, 0, 0])
+    big = json.loads((tmp_path / "cam.json").read_text())
+    big.update(dist_coeffs=[0, 0, 0, 0, 0], image_size=[16384, 16384],
+               camera_matrix=[[14000, 0, 8191.5], [0, 14000, 8191.5], [0, 0, 1]])
+    (tmp_path / "big.json").write_text(json.dumps(big))
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert_one_line_error(run(*args, cwd=tmp_path), needle)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written

@@ -464,8 +464,10 @@ def test_ctrl_c_twice_leaves_no_hidden_file(tmp_path):
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert not list(tmp_path.glob(".*"))
-    if out.exists():  # the first Ctrl-C finished the outputs before the second arrived
-        assert VideoInfo.from_path(out).total_frames == len(read_telemetry(tele))
+    assert not out.exists() and not tele.exists()  # an interrupted run's outputs are partial: named so
+    partial = tmp_path / "o.partial.mp4"
+    if partial.exists():  # the first Ctrl-C finished the outputs before the second arrived
+        assert VideoInfo.from_path(partial).total_frames == len(read_telemetry(tmp_path / "t.partial.csv"))
 
 
 def test_an_odd_frame_size_is_padded_when_encoded(tmp_path):

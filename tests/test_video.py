@@ -139,6 +139,7 @@ def test_truncated_video_with_its_index_at_the_end_is_a_clear_error(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_interrupted_run_leaves_a_playable_video_and_matching_telemetry(tmp_path, sig):
     out, tele = tmp_path / "o.mp4", tmp_path / "t.csv"
+    out.write_text("an earlier run's output")  # kept as it is: the partial outputs get names of their own
     proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(PROJECT), "-o", str(out),
                              "--telemetry", str(tele), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
@@ -150,9 +151,10 @@ def test_interrupted_run_leaves_a_playable_video_and_matching_telemetry(tmp_path
     _, err = proc.communicate(timeout=60)
     assert "Traceback" not in err
     assert proc.returncode == 130, err
-    n = count_frames(out)
+    n = count_frames(tmp_path / "o.partial.mp4")
     assert 0 < n < 250
-    assert len(read_telemetry(tele)) == n
+    assert len(read_telemetry(tmp_path / "t.partial.csv")) == n
+    assert out.read_text() == "an earlier run's output" and not tele.exists()
     assert not list(tmp_path.glob(".*"))  # no temporary files left behind
 
 

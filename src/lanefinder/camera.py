@@ -510,9 +510,36 @@ def _checked_camera(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple, rms, 
     if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
         raise LaneFinderError(f"{p}: a focal length of {k[0, 0]:g} px over {size[0]} px is a {fov:.2f} degree field "
                               f"of view: lanefinder takes {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g}")
+    _check_distortion(p, k, dist, (int(size[0]), int(size[1])))
     if rms is not None and not (isinstance(rms, (int, float)) and math.isfinite(rms)):
         raise LaneFinderError(f"{p}: rms_px must be a number")
     return CameraModel(k, dist, (int(size[0]), int(size[1])), rms, board, views, str(p))
+
+
+#: A lens may bend the frame's corners at most this many times nearer to or farther from its
+#: centre than a pinhole would put them (fisheye-like dashcams: 1.5-2.5).
+MAX_DISTORTION_RATIO = 5.0
+
+
+def _check_distortion(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple[int, int]) -> None:
+    """Refuse distortion coefficients that fold the frame or shrink it to a point (not a lens)."""
+    w, h = size
+    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1], [w - 1, (h - 1) / 2]], np.float64)
+    bad = f"{p}: dist_coeffs do not describe a lens over a {w}x{h} frame"
+    with np.errstate(all="ignore"):
+        und = cv2.undistortPoints(corners.reshape(-1, 1, 2), k, dist, R=None, P=None,  # normalised pinhole rays
+                                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-9)).reshape(-1, 2)
+        back = cv2.projectPoints(np.column_stack([und, np.ones(len(und))]), np.zeros(3), np.zeros(3), k,
+                                 dist)[0].reshape(-1, 2)
+        r_d = np.hypot((corners[:, 0] - k[0, 2]) / k[0, 0], (corners[:, 1] - k[1, 2]) / k[1, 1])
+        ratio = np.hypot(und[:, 0], und[:, 1]) / np.maximum(r_d, 1e-12)
+    if not (np.all(np.isfinite(back)) and np.all(np.isfinite(ratio))):
+        raise LaneFinderError(bad + " (they give no finite undistortion)")
+    if np.abs(back - corners).max() > 2.0:
+        raise LaneFinderError(bad + " (they fold it: the undistortion of its corners does not map back)")
+    if not (ratio.min() >= 1 / MAX_DISTORTION_RATIO and ratio.max() <= MAX_DISTORTION_RATIO):
+        raise LaneFinderError(bad + f" (they move its corners {max(ratio.max(), 1 / ratio.min()):.3g} times "
+                              f"nearer or farther than a pinhole would; at most {MAX_DISTORTION_RATIO:g})")
 
 
 def _load_opencv_storage(p: Path) -> CameraModel:

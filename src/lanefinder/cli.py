@@ -8,6 +8,7 @@ Every command's work lives in the library (the jobs :mod:`lanefinder.imagejob` a
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from dataclasses import replace
@@ -179,23 +180,38 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
 @main.command("config")
 @click.option("--default", "default", is_flag=True, help="Print the full default configuration.")
 @click.option("--check", "check", type=click.Path(), help="Validate a config file and print it in full.")
-@click.option("--format", "fmt", type=click.Choice(["toml", "yaml", "json"]), default="toml", show_default=True)
-@click.option("-o", "--output", type=click.Path(), help="Write to this file instead of standard output.")
-def config_cmd(default: bool, check: str | None, fmt: str, output: str | None) -> None:
+@click.option("--format", "fmt", type=click.Choice(["toml", "yaml", "json"]),
+              help="The format (default: the output file's, else toml).")
+@click.option("-o", "--output", type=click.Path(), help="Write to this file (.toml/.yaml/.json) instead of standard "
+              "output.")
+def config_cmd(default: bool, check: str | None, fmt: str | None, output: str | None) -> None:
     """Print (or check) the configuration that -c takes."""
     from .config import Config, dump_config, load_config
     from .io import atomic_write_text, check_not_input
 
     if not default and not check:
         raise LaneFinderError("say --default to print the defaults, or --check FILE to validate a config")
-    if output and check:
-        check_not_input(output, [check])
-    text = dump_config(load_config(check) if check else Config(), fmt)  # type: ignore[arg-type]
+    if output:
+        wanted = _config_format(output)
+        if fmt and fmt != wanted:
+            raise LaneFinderError(f"--format {fmt} does not suit {output}, which -c would read as {wanted}")
+        fmt = wanted
+        if check:
+            check_not_input(output, [check])
+    text = dump_config(load_config(check) if check else Config(), fmt or "toml")  # type: ignore[arg-type]
     if output:
         atomic_write_text(output, text)
         click.echo(f"wrote {output}", err=True)
     else:
         click.echo(text, nl=False)
+
+
+def _config_format(path: str) -> str:
+    """Give the format a config file of this name is read in (``-c``), or refuse a name -c cannot read."""
+    fmt = {".toml": "toml", ".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise LaneFinderError(f"a config is written as .toml, .yaml or .json (so that -c can read it), not {path}")
+    return fmt
 
 
 # -- image -------------------------------------------------------------------------------
@@ -280,8 +296,6 @@ def video(src: str, output: str | None, config_path: str | None, start_s: float,
     for line in summary.lines():
         if line:
             click.echo(line)
-    if sheet:
-        click.echo(f"contact sheet: {sheet}")
     if summary.interrupted:
         sys.exit(130)
 
@@ -289,7 +303,7 @@ def video(src: str, output: str | None, config_path: str | None, start_s: float,
 # -- plot --------------------------------------------------------------------------------
 @main.command()
 @click.argument("telemetry", type=click.Path())
-@click.option("-o", "--output", required=True, type=click.Path(), help="Plot image to write (.png).")
+@click.option("-o", "--output", required=True, type=click.Path(), help="Plot to write (.png, .pdf or .svg).")
 def plot(telemetry: str, output: str) -> None:
     """Plot radius, offset, width and confidence over time from a TELEMETRY file."""
     from .io import check_not_input
@@ -357,7 +371,10 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
 
     if json_path:
         check_not_input(json_path, [gt_path, pred_path])
-    report = evaluate(read_ground_truth(gt_path), read_predictions(pred_path))
+    predictions = read_predictions(pred_path)
+    if not predictions:
+        raise LaneFinderError(f"{pred_path} holds no predictions (no rows)")
+    report = evaluate(read_ground_truth(gt_path), predictions)
     click.echo(report.table(name))
     if report.band_accuracy or report.lateral_err_6m_median is not None:  # the truth gives distances
         click.echo(report.band_table(name))
@@ -394,6 +411,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
 
     if bool(straight) == bool(video_path):
         raise LaneFinderError("give straight-road frames with --straight, or a video with --video")
+    fmt = _config_format(output)
     prev = Path(output).with_name(Path(output).stem + "_preview.png")
     paths = [Path(video_path)] if video_path else list_images(straight)
     check_outputs([output, prev], _setup_inputs(paths, camera_path))  # before any work
@@ -405,6 +423,8 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
             raise LaneFinderError(f"video not found: {video_path}")
         click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, opts)
+        if not images:
+            raise LaneFinderError(f"no frame could be read from {video_path}")
         click.echo(f"{len(images)} frames sampled from the video (numbered 1-{len(images)} below)")
     else:
         images = [read_image(p) for p in paths]
@@ -430,7 +450,6 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     quality = result.quality.lines() if result.quality else []
     for line in quality:
         click.echo(line)
-    fmt = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(output).suffix.lower(), "toml")
     with OutputSet(inputs=_setup_inputs(paths, camera_path)) as together:
         text = dump_config(result.config(), fmt)  # type: ignore[arg-type]
         if fmt != "json":  # JSON has no comments: the report is printed above
@@ -461,6 +480,10 @@ def batch(inputs: tuple[str, ...], outdir: str, config_path: str | None, workers
 
     if workers is not None and scheduler:
         raise LaneFinderError("give --workers for a local cluster or --scheduler for a running one, not both")
+    # After a Ctrl-C, multiprocessing's resource tracker (a process of its own, started with the
+    # local workers) warns of the semaphores of the workers it then removes itself: noise, not ours.
+    quiet_tracker = "ignore::UserWarning:multiprocessing.resource_tracker"
+    os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (os.environ.get("PYTHONWARNINGS"), quiet_tracker)))
     report = run_batch(list(inputs), outdir, _config(config_path), workers=workers, scheduler=scheduler,
                        write_video=write_video, progress=not quiet, echo=click.echo)
     for line in report.lines():

@@ -170,9 +170,10 @@ class BirdseyeConfig(_Section):
     dst : 4 tuples of float
         Where ``src`` goes in the view, pixels, in the same order.
     xm_per_px : float
-        Metres per view pixel across the road.
+        Metres per view pixel across the road (0.002-0.5: finer makes the threshold's filters
+        thousands of pixels wide).
     ym_per_px : float
-        Metres per view pixel along the road.
+        Metres per view pixel along the road (0.005-2).
 
     Examples
     --------
@@ -185,8 +186,8 @@ class BirdseyeConfig(_Section):
     src: tuple[Point, Point, Point, Point] = ((581.3, 460.0), (702.9, 460.0), (1034.0, 675.0), (280.5, 675.0))
     size: tuple[ViewSide, ViewSide] = VIEW_SIZE_PX
     dst: tuple[Point, Point, Point, Point] = default_dst()
-    xm_per_px: PositiveFloat = LANE_WIDTH_M / LANE_SPAN_PX
-    ym_per_px: PositiveFloat = 0.09853
+    xm_per_px: Annotated[float, Field(ge=0.002, le=0.5)] = LANE_WIDTH_M / LANE_SPAN_PX
+    ym_per_px: Annotated[float, Field(ge=0.005, le=2.0)] = 0.09853
 
     @model_validator(mode="after")
     def _check_shapes(self) -> BirdseyeConfig:
@@ -819,7 +820,8 @@ class SelfCalConfig(_Section):
         A still that gives no set-up of its own (a curving road, or a camera height outside
         ``still_height_m``: the ego lines misread) but whose road lines meet on a vanishing
         point is found again with the config's set-up pitched to that point's row
-        (:func:`lanefinder.selfcal.horizon_setup`; the height and the yaw kept) ...
+        (:func:`lanefinder.selfcal.horizon_setup`; the height and the yaw kept), and so is a
+        self-calibrating video's first frame (``first_frame``) ...
     still_horizon_margin : float
         ... and that result is kept when it has a lane and its lines' mean confidence is at
         least this much higher (or the config's set-up shows no lane).
@@ -830,8 +832,8 @@ class SelfCalConfig(_Section):
         that result is kept when it has a lane and its lines are no less sure.
     first_frame : bool
         A video's first frame is looked at alone, as a still is (its own set-up, the still
-        gates), and the set-up it gives is used until self-calibration has an estimate
-        (telemetry ``setup`` = ``first-frame``).
+        gates, else its horizon's set-up as ``still_horizon`` says), and the set-up it gives
+        is used until self-calibration has an estimate (telemetry ``setup`` = ``first-frame``).
     unsure_parallel : float
         While a self-calibrating video runs on the default (or its first frame's) set-up, before its first sure estimate
         and within its first ``fast_frames`` frames, ``fit.parallel`` is this: a camera mounted
@@ -1101,6 +1103,8 @@ def load_config(path: str | Path | None) -> Config:
     if path is None:
         return Config()
     p = Path(path)
+    if p.is_dir():
+        raise LaneFinderError(f"{p} is a folder, not a config file")
     if not p.is_file():
         raise LaneFinderError(f"config file not found: {p}")
     try:

@@ -24,6 +24,7 @@ __all__ = [
     "check_outputs",
     "encode_image",
     "list_images",
+    "partial_name",
     "publish",
     "read_image",
     "signals_held",
@@ -314,16 +315,40 @@ class OutputSet:
         self.outputs.append(dest)
         return Path(tmp)
 
-    def commit(self) -> None:
-        """Move every finished output into place, with ordinary permissions."""
+    def commit(self, partial: bool = False) -> dict[Path, Path]:
+        """Move every finished output into place, with ordinary permissions.
+
+        Parameters
+        ----------
+        partial : bool, optional
+            The outputs are incomplete (a run stopped early): each goes under
+            :func:`partial_name` of its destination instead, and whatever is at the
+            destination stays as it was.
+
+        Returns
+        -------
+        dict of Path to Path
+            Where each destination's file went.
+
+        Raises
+        ------
+        LaneFinderError
+            When a file cannot be moved, or (``partial``) a partial name is an input.
+        """
+        placed: dict[Path, Path] = {}
         with signals_held():
             try:
                 for tmp, dest in self._pending:
-                    publish(tmp, dest)
+                    where = partial_name(dest) if partial else dest
+                    if partial and where.resolve() in self._inputs:
+                        raise LaneFinderError(f"refusing to overwrite the input {where} with a partial output")
+                    publish(tmp, where)
+                    placed[dest] = where
             except OSError as e:
                 raise LaneFinderError(f"cannot put {dest} in place: {e.strerror or e}") from None
             finally:
                 self.discard()
+        return placed
 
     def discard(self) -> None:
         """Remove the temporary files that are left, and the folders made for them if empty."""
@@ -348,6 +373,28 @@ class OutputSet:
             self.commit()
         else:
             self.discard()
+
+
+def partial_name(path: str | Path) -> Path:
+    """Give the name an incomplete output is kept under: ``<stem>.partial<suffix>`` beside it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output's destination.
+
+    Returns
+    -------
+    Path
+        The partial output's path.
+
+    Examples
+    --------
+    >>> partial_name("out/drive.mp4").as_posix()
+    'out/drive.partial.mp4'
+    """
+    p = Path(path)
+    return p.with_name(f"{p.stem}.partial{p.suffix}")
 
 
 @contextlib.contextmanager

@@ -206,6 +206,11 @@ def _sureness(result: LaneResult) -> float:
     return (result.left.confidence + result.right.confidence) / 2
 
 
+def _surer(other: LaneResult, first: LaneResult, margin: float) -> bool:
+    """Tell whether ``other`` shows a lane and, where ``first`` shows one too, lines surer by ``margin``."""
+    return other.lane_found and (not first.lane_found or _sureness(other) >= _sureness(first) + margin)
+
+
 def _check_frame(frame: np.ndarray) -> None:
     """Raise a LaneFinderError unless ``frame`` is a BGR uint8 image."""
     if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
@@ -391,8 +396,8 @@ class LaneFinder:
             self._curvature_per_m = math.nan
             # The first frame alone, as a still: a set-up of its own, used until the estimate (on
             # synthetic unknown mounts the frames before the first estimate scored 0.43-0.59).
-            first = (self.selfcal.first_look(frame) if self.config.selfcal.first_frame
-                     and selfcal_wanted(self.config) else None)
+            first = (self.selfcal.first_look(frame, lambda other: self._seen_better(frame, be, other))
+                     if self.config.selfcal.first_frame and selfcal_wanted(self.config) else None)
             if first is not None:
                 self.use_birdseye(first)
                 self.reset()
@@ -502,12 +507,21 @@ class LaneFinder:
             tried = True
             self.use_birdseye(be)
             other = self._still_with(label, frame)
-            if other.lane_found and (not first.lane_found or _sureness(other) >= _sureness(first) + margin):
+            if _surer(other, first, margin):
                 return other
         if tried:
             self.use_birdseye(self._config_birdseye)
             self.reset()
         return first
+
+    def _seen_better(self, frame: np.ndarray, be: BirdsEye, other: BirdsEye) -> bool:
+        """Tell whether a frame found blind shows a surer lane with ``other`` than with ``be`` (as a still)."""
+        probe = LaneFinder(self.config, self.camera)
+        probe.use_birdseye(be)
+        with_be = probe.process(frame)
+        probe.reset()
+        probe.use_birdseye(other)
+        return _surer(probe.process(frame), with_be, self.config.selfcal.still_horizon_margin)
 
     def _still_with(self, label: str, frame: np.ndarray) -> LaneResult:
         """Find a still afresh with the set-up just put in use, labelled (as later frames are) with its source."""

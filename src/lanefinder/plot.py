@@ -9,7 +9,12 @@ import numpy as np
 from .errors import LaneFinderError
 from .io import atomic_path
 
-__all__ = ["plot_telemetry"]
+__all__ = ["PLOT_FORMATS", "plot_telemetry"]
+
+#: The files a plot is written as (by the name's suffix).
+PLOT_FORMATS = ("png", "pdf", "svg")
+#: The telemetry columns plotted.
+_PLOTTED = ("radius_m", "offset_m", "width_m", "left_conf", "right_conf")
 
 
 def plot_telemetry(rows: list[dict], path: str | Path) -> None:
@@ -21,12 +26,13 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
         Telemetry rows (see :func:`lanefinder.telemetry.read_telemetry`); missing values may be
         None.  Frames whose ``state`` is ``lost`` are shaded in the confidence panel.
     path : str or Path
-        The PNG to write (atomically: never half-written).
+        The image to write (atomically: never half-written): ``.png``, ``.pdf`` or ``.svg``.
 
     Raises
     ------
     LaneFinderError
-        When ``rows`` is empty.
+        When ``rows`` is empty or is not lanefinder telemetry (no ``time_s``, or none of the
+        plotted columns), or ``path`` is not a .png, .pdf or .svg file.
 
     Examples
     --------
@@ -43,8 +49,14 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    fmt = Path(path).suffix.lower().lstrip(".")
+    if fmt not in PLOT_FORMATS:
+        raise LaneFinderError(f"a plot is written as {', '.join('.' + f for f in PLOT_FORMATS)}: not {Path(path).name}")
     if not rows:
         raise LaneFinderError("the telemetry file has no rows")
+    if "time_s" not in rows[0] or not any(k in rows[0] for k in _PLOTTED):
+        raise LaneFinderError(f"not lanefinder telemetry: it needs time_s and some of {', '.join(_PLOTTED)}; "
+                              f"it has {', '.join(list(rows[0])[:8])}")
 
     def col(key: str) -> np.ndarray:
         return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
@@ -70,6 +82,6 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
     for ax in axes:
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
+    with atomic_path(path, suffix="." + fmt) as tmp:
+        fig.savefig(tmp, dpi=90, format=fmt)
     plt.close(fig)

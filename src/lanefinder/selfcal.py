@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -186,17 +187,21 @@ class SelfCalibrator:
         """True while there is no sure estimate and the next frame is among the first ``fast_frames``."""
         return self.state.source in ("default", "first-frame") and self._seen < self.cfg.fast_frames
 
-    def first_look(self, frame: np.ndarray) -> BirdsEye | None:
+    def first_look(self, frame: np.ndarray, prefer: Callable[[BirdsEye], bool] | None = None) -> BirdsEye | None:
         """Look at a video's first frame alone, as a still is, for a set-up to use until the estimate.
 
-        The frame gets its own set-up only when :func:`still_setup` gives one (one straight frame,
-        the still gates); it then replaces the set-up in use, and ``state.source`` becomes
-        ``first-frame``.  Call it before :meth:`offer` is given any frame.
+        The frame gets its own set-up when :func:`still_setup` gives one (one straight frame,
+        the still gates).  When it gives none, the set-up in use pitched to the frame's horizon
+        (:func:`look_at_still`) is taken when ``selfcal.still_horizon`` and ``prefer`` says the
+        frame is seen better with it.  Either replaces the set-up in use, and ``state.source``
+        becomes ``first-frame``.  Call it before :meth:`offer` is given any frame.
 
         Parameters
         ----------
         frame : (H, W, 3) uint8 ndarray
             The video's first frame, BGR (raw).
+        prefer : callable, optional
+            Given the horizon's set-up, tells whether to take it (None: never).
 
         Returns
         -------
@@ -211,7 +216,11 @@ class SelfCalibrator:
         >>> cal.first_look(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source
         (True, 'default')
         """
-        new = still_setup(frame, self.config, self.current)
+        look = look_at_still(frame, self.config, self.current)
+        new = look.own
+        if (new is None and look.horizon is not None and self.cfg.still_horizon and prefer is not None
+                and prefer(look.horizon)):
+            new = look.horizon
         if new is None:
             return None
         self.current = new

@@ -132,6 +132,8 @@ class VideoSummary:
         The events file.
     setup : SetupState or None
         The self-calibration's last word, when the run self-calibrated.
+    contact_sheet : str or None
+        The contact sheet, when one was written.
 
     Examples
     --------
@@ -157,6 +159,7 @@ class VideoSummary:
     events: dict[str, int] | None = None
     events_path: str | None = None
     setup: SetupState | None = None
+    contact_sheet: str | None = None
 
     def lines(self) -> list[str]:
         """Return the end-of-run summary as printed lines.
@@ -171,7 +174,8 @@ class VideoSummary:
             f"frames: {self.frames} in {self.seconds:.1f} s ({self.fps:.1f} fps)",
             f"frames with a lane: {self.tracked} ({pct:.1f}%), both lines seen: {self.both_found}",
             f"re-detections: {self.redetections}, frames marked lost: {self.lost}, damaged packets: {self.damaged}",
-            ", ".join(f"{k}: {v}" for k, v in (("video", self.output), ("telemetry", self.telemetry)) if v),
+            ", ".join(f"{k}: {v}" for k, v in (("video", self.output), ("telemetry", self.telemetry),
+                                               ("contact sheet", self.contact_sheet)) if v),
         ]
         if self.events is not None:
             out.append("events: " + ", ".join(f"{k} {v}" for k, v in self.events.items()) + f" -> {self.events_path}")
@@ -180,7 +184,8 @@ class VideoSummary:
         if self.truncated:
             out.append("the input ended early (truncated file): the output holds the frames that could be read")
         if self.interrupted:
-            out.append("interrupted: the output holds the frames processed so far")
+            out.append("interrupted: the outputs above hold the frames processed so far, under .partial names "
+                       "(any earlier outputs of the same names are left as they were)")
         if self.padded:
             out.append(f"note: the frames have an odd size, which H.264 cannot hold: the video is padded by one "
                        f"pixel to {self.padded[0]}x{self.padded[1]} (the last row/column repeated)")
@@ -522,6 +527,13 @@ def process_video(
             except OSError as e:
                 raise LaneFinderError(f"cannot write {contact_sheet_path}: {e.strerror or e}") from None
         elapsed = time.perf_counter() - t0
+        # Stopped early: what was done is kept, under partial names (whatever was at the
+        # destinations, a complete earlier run say, stays as it was).
+        placed = outs.commit(partial=True) if interrupted else {}
+    if placed:
+        dst, telemetry, events = (placed.get(Path(p), Path(p)) if p is not None else None
+                                  for p in (dst, telemetry, events))
+        contact_sheet_path = placed.get(Path(contact_sheet_path)) if contact_sheet_path else None
     # A file cut short may just end (its index said more): fewer frames than it announced.
     ended_early = decode_stats.truncated or (not interrupted and done < expected - _EARLY_END_FRAMES)
     c = run.counts
@@ -532,4 +544,5 @@ def process_video(
         telemetry=str(telemetry) if telemetry else None, padded=sink.size if sink is not None and sink.padded else None,
         events=found, events_path=str(events) if events is not None else None,
         setup=finder.selfcal.state if finder.selfcal is not None else None,
+        contact_sheet=str(contact_sheet_path) if contact_sheet_path else None,
     )
