@@ -495,3 +495,23 @@ def test_a_wrong_board_size_is_refused_quickly():
 
     with pytest.raises(LaneFinderError, match="7x7"):
         calibrate(sorted(CAL.glob("*.jpg"))[:6], (7, 7))
+
+
+def test_partial_names_are_checked_before_any_work(tmp_path):
+    from lanefinder import io as lio
+    from lanefinder.errors import LaneFinderError
+
+    (tmp_path / "a.partial.mp4").write_text("an input")
+    with pytest.raises(LaneFinderError, match="which is an input"):
+        lio.OutputSet(inputs=[tmp_path / "a.partial.mp4"], partial=True).add(tmp_path / "a.mp4")
+    outs = lio.OutputSet(partial=True)
+    outs.add(tmp_path / "t.csv")
+    with pytest.raises(LaneFinderError, match="share a name"):
+        outs.add(tmp_path / "t.partial.csv")
+    outs.discard()
+    # A set not made partial is never committed so.
+    plain = lio.OutputSet()
+    plain.add(tmp_path / "x.txt").write_text("x")
+    with pytest.raises(LaneFinderError, match="not made to be kept as partial"):
+        plain.commit(partial=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.partial.mp4"]

@@ -25,9 +25,7 @@ import math
 import os
 import posixpath
 import re
-import signal
 import tempfile
-import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -664,9 +662,10 @@ def _client(workers: int | None, scheduler: str | None, in_process: bool):
     # The scheduler's web server (and dashboard) on a free port of this machine only.
     # In-process workers (for memory:// URLs, which live in this process) talk over inproc://.
     where = {} if in_process else {"host": "127.0.0.1"}
-    with _interrupts_ignored():  # the worker processes inherit it: Ctrl-C stops the run here, not them
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not in_process,
-                               dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR, **where)
+    # Local worker processes ignore Ctrl-C once started (lanefinder.daskworker): this process stops
+    # the run.  (A Ctrl-C in the second or so while they start still reaches them: they stop with
+    # tracebacks.  Ignoring it here while they start, which they would inherit, would lose it.)
+    preload = {} if in_process else {"preload": ["lanefinder.daskworker"]}
     # An interrupt during a client call can make distributed's own clean-up raise inside the event
     # loop (a NameError in distributed.utils.sync's cancel callback), which tornado logs with a
     # traceback after the run has already stopped cleanly.
@@ -674,29 +673,12 @@ def _client(workers: int | None, scheduler: str | None, in_process: bool):
     level = tornado_log.level
     tornado_log.setLevel(logging.CRITICAL)
     try:
-        with cluster, Client(cluster) as client:
+        with LocalCluster(n_workers=n, threads_per_worker=1, processes=not in_process,
+                          dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR, **where,
+                          **preload) as cluster, Client(cluster) as client:
             yield client
     finally:
         tornado_log.setLevel(level)
-
-
-@contextlib.contextmanager
-def _interrupts_ignored():
-    """Ignore SIGINT while processes are started, so that they ignore it too (in the main thread only).
-
-    A terminal's Ctrl-C goes to every process of the foreground group: local Dask workers would
-    each die printing a traceback while this process shuts the cluster down in order.  A process
-    started while SIGINT is ignored keeps ignoring it (Python installs its handler only over the
-    default one).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, before)
 
 
 def _dashboard(client) -> str | None:

@@ -483,9 +483,16 @@ def batch(inputs: tuple[str, ...], outdir: str, config_path: str | None, workers
     # After a Ctrl-C, multiprocessing's resource tracker (a process of its own, started with the
     # local workers) warns of the semaphores of the workers it then removes itself: noise, not ours.
     quiet_tracker = "ignore::UserWarning:multiprocessing.resource_tracker"
-    os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (os.environ.get("PYTHONWARNINGS"), quiet_tracker)))
-    report = run_batch(list(inputs), outdir, _config(config_path), workers=workers, scheduler=scheduler,
-                       write_video=write_video, progress=not quiet, echo=click.echo)
+    before = os.environ.get("PYTHONWARNINGS")
+    os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (before, quiet_tracker)))
+    try:
+        report = run_batch(list(inputs), outdir, _config(config_path), workers=workers, scheduler=scheduler,
+                           write_video=write_video, progress=not quiet, echo=click.echo)
+    finally:
+        if before is None:
+            os.environ.pop("PYTHONWARNINGS", None)
+        else:
+            os.environ["PYTHONWARNINGS"] = before
     for line in report.lines():
         click.echo(line)
     if report.failed:

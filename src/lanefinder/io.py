@@ -220,6 +220,9 @@ class OutputSet:
     ----------
     inputs : iterable of str or Path, optional
         The command's inputs: no output may name one of them.
+    partial : bool, optional
+        The outputs may be committed as partial (:meth:`commit`): no output's
+        :func:`partial_name` may then name an input or another output, checked up front.
 
     Attributes
     ----------
@@ -243,8 +246,9 @@ class OutputSet:
     lanefinder.errors.LaneFinderError: refusing to overwrite the input .../a.txt; choose another output path
     """
 
-    def __init__(self, inputs: Iterable[str | Path] = ()):
+    def __init__(self, inputs: Iterable[str | Path] = (), partial: bool = False):
         self._inputs = {Path(p).resolve(): Path(p) for p in inputs}
+        self.partial = partial
         self._pending: list[tuple[Path, Path]] = []
         self._made: list[Path] = []
         self.outputs: list[Path] = []
@@ -273,6 +277,15 @@ class OutputSet:
             raise LaneFinderError(f"refusing to overwrite the input {self._inputs[real]}; choose another output path")
         if any(real == o.resolve() for o in self.outputs):
             raise LaneFinderError(f"two outputs would be written to the same file: {dest}")
+        if self.partial:
+            part = partial_name(dest).resolve()
+            if part in self._inputs:
+                raise LaneFinderError(f"refusing {dest}: a stopped run would keep it as {partial_name(dest)}, "
+                                      "which is an input; choose another output path")
+            named = {o.resolve() for o in self.outputs} | {partial_name(o).resolve() for o in self.outputs}
+            if part in named or real in {partial_name(o).resolve() for o in self.outputs}:
+                raise LaneFinderError(f"refusing {dest}: it and another output would share a name when a stopped "
+                                      "run keeps them as .partial files; choose other output paths")
         if dest.is_dir():
             raise LaneFinderError(f"the output {dest} is a folder; give a file name")
         for parent in dest.parents:
@@ -333,15 +346,16 @@ class OutputSet:
         Raises
         ------
         LaneFinderError
-            When a file cannot be moved, or (``partial``) a partial name is an input.
+            When a file cannot be moved, or ``partial`` is asked of a set not made ``partial``.
         """
+        if partial and not self.partial:
+            self.discard()
+            raise LaneFinderError("this set of outputs was not made to be kept as partial files")
         placed: dict[Path, Path] = {}
         with signals_held():
             try:
                 for tmp, dest in self._pending:
                     where = partial_name(dest) if partial else dest
-                    if partial and where.resolve() in self._inputs:
-                        raise LaneFinderError(f"refusing to overwrite the input {where} with a partial output")
                     publish(tmp, where)
                     placed[dest] = where
             except OSError as e:

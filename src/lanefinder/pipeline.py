@@ -511,6 +511,7 @@ class LaneFinder:
                 return other
         if tried:
             self.use_birdseye(self._config_birdseye)
+            self.last_birdseye = self._config_birdseye  # the set-up ``first`` was found with
             self.reset()
         return first
 

@@ -435,18 +435,29 @@ def horizon_setup(current: BirdsEye, horizon_px: float, config: Config | None = 
     -20
     """
     cfg = (config or Config()).selfcal
-    w, h = current.frame_size
-    row, height_m, _ = setup_of(current)
-    if not (math.isfinite(horizon_px) and LINES_MIN_SHIFT * h < abs(horizon_px - row) <= LINES_MAX_SHIFT * h):
+    if not math.isfinite(horizon_px):
         return None
     est = RoadEstimate(camera_matrix=current.camera.camera_matrix, vp=(src_vanishing_point(current.src_px)[0],
-                       float(horizon_px)), height_m=height_m, centre_m=0.0, focal_source="camera file", evidence=())
+                       float(horizon_px)), height_m=setup_of(current)[1], centre_m=0.0, focal_source="camera file",
+                       evidence=())
+    return _still_setup_from(current, est, cfg)
+
+
+def _still_setup_from(current: BirdsEye, est: RoadEstimate, cfg: SelfCalConfig) -> BirdsEye | None:
+    """Give the set-up of a still's road estimate, or None (see :func:`horizon_setup`).
+
+    None when its horizon is within ``LINES_MIN_SHIFT`` of the frame's height of ``current``'s or
+    more than ``LINES_MAX_SHIFT`` from it, or when it fails a still's gates.
+    """
+    w, h = current.frame_size
+    if not LINES_MIN_SHIFT * h < abs(est.vp[1] - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
+        return None
     try:
         b, _, _ = view_from_estimate(est, (w, h), SetupOptions())
     except LaneFinderError:
         return None
     new = make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
-    return new if _plausible_for_a_still(current, new, height_m, cfg) else None
+    return new if _plausible_for_a_still(current, new, est.height_m, cfg) else None
 
 
 def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cfg: SelfCalConfig) -> bool:
@@ -520,14 +531,10 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
             return None
         pts.append(current.to_undistorted(np.column_stack([line.x[near], line.y[near]])))
     opts = SetupOptions()
-    w, h = current.frame_size
+    bottom_px = opts.bottom_fraction * (current.frame_size[1] - 1)
     try:
-        est = road_from_lines(pts[0], pts[1], current.camera.camera_matrix, opts.bottom_fraction * (h - 1),
-                              opts.lane_width_m, vp_x=src_vanishing_point(current.src_px)[0])
-        if not LINES_MIN_SHIFT * h < abs(est.vp[1] - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
-            return None
-        b, _, _ = view_from_estimate(est, (w, h), opts)
+        est = road_from_lines(pts[0], pts[1], current.camera.camera_matrix, bottom_px, opts.lane_width_m,
+                              vp_x=src_vanishing_point(current.src_px)[0])
     except LaneFinderError:
         return None
-    new = make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
-    return new if _plausible_for_a_still(current, new, est.height_m, cfg) else None
+    return _still_setup_from(current, est, cfg)

@@ -46,6 +46,7 @@ __all__ = [
     "LATERAL_AT_M",
     "LEFT_KINDS",
     "MARKING_M",
+    "RENDER_BUDGET_MB",
     "RENDER_BYTES_PER_PX",
     "SCENARIOS",
     "Appearance",
@@ -1283,6 +1284,8 @@ class Renderer:
 #: Peak bytes per frame pixel while rendering (the supersampled ground, its textures and masks):
 #: measured 450 at 1280x720 and 2560x1440 (peak resident size less the interpreter's 150 MB).
 RENDER_BYTES_PER_PX = 450
+#: The memory ``synth`` may use, MB: 4K frames (3840x2160, about 3.6 GB) fit.
+RENDER_BUDGET_MB = 8192
 
 
 def check_render_memory(frame_size: tuple[int, int], budget_mb: int | None = None) -> None:
@@ -1293,7 +1296,7 @@ def check_render_memory(frame_size: tuple[int, int], budget_mb: int | None = Non
     frame_size : tuple of int
         (width, height) of the frames, pixels.
     budget_mb : int, optional
-        The budget, MB (default: ``limits.memory_mb`` of the default config).
+        The budget, MB (default ``RENDER_BUDGET_MB``).
 
     Raises
     ------
@@ -1306,16 +1309,14 @@ def check_render_memory(frame_size: tuple[int, int], budget_mb: int | None = Non
     >>> check_render_memory((16384, 16384))
     Traceback (most recent call last):
     ...
-    lanefinder.errors.LaneFinderError: rendering 16384x16384 frames needs about 115200 MB, over the 2048 MB ...
+    lanefinder.errors.LaneFinderError: rendering 16384x16384 frames needs about 115200 MB, over the 8192 MB ...
     """
-    from .config import LimitsConfig
-
-    budget = LimitsConfig().memory_mb if budget_mb is None else budget_mb
+    budget = RENDER_BUDGET_MB if budget_mb is None else budget_mb
     w, h = frame_size
     need = w * h * RENDER_BYTES_PER_PX / 2**20
     if need > budget:
-        raise LaneFinderError(f"rendering {w}x{h} frames needs about {need:.0f} MB, over the {budget} MB of "
-                              "limits.memory_mb; use a camera file for a smaller image size")
+        raise LaneFinderError(f"rendering {w}x{h} frames needs about {need:.0f} MB, over the {budget} MB synth "
+                              "allows; use a camera file for a smaller image size")
 
 
 def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,

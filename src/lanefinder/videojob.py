@@ -486,7 +486,7 @@ def process_video(
     run = _Run(finder, be, expected, sheet_frames if contact_sheet_path else 0, debug, on_result,
                float(info.fps) if events is not None else None)
     # Every output is written beside its destination and put in place together, only at the end.
-    with OutputSet(inputs=[src]) as outs:
+    with OutputSet(inputs=[src], partial=True) as outs:
         sink = VideoSink(dst, info, cfg.video.preset, cfg.video.crf, cfg.video.threads, outputs=outs) \
             if dst is not None else None
         writer = TelemetryWriter(telemetry, outputs=outs) if telemetry is not None else None
