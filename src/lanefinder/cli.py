@@ -198,7 +198,12 @@ def config_cmd(default: bool, check: str | None, fmt: str | None, output: str | 
         fmt = wanted
         if check:
             check_not_input(output, [check])
-    text = dump_config(load_config(check) if check else Config(), fmt or "toml")  # type: ignore[arg-type]
+    cfg = load_config(check) if check else Config()
+    if check:
+        from .pipeline import camera_from_config
+
+        camera_from_config(cfg)  # the camera file it names must exist and describe a lens
+    text = dump_config(cfg, fmt or "toml")  # type: ignore[arg-type]
     if output:
         atomic_write_text(output, text)
         click.echo(f"wrote {output}", err=True)
@@ -210,7 +215,8 @@ def _config_format(path: str) -> str:
     """Give the format a config file of this name is read in (``-c``), or refuse a name -c cannot read."""
     fmt = {".toml": "toml", ".yaml": "yaml", ".yml": "yaml", ".json": "json"}.get(Path(path).suffix.lower())
     if fmt is None:
-        raise LaneFinderError(f"a config is written as .toml, .yaml or .json (so that -c can read it), not {path}")
+        raise LaneFinderError(f"a config is written as .toml, .yaml (.yml) or .json (so that -c can read it), "
+                              f"not {path}")
     return fmt
 
 
@@ -359,9 +365,9 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
 @main.command("eval")
 @click.option("--gt", "gt_path", required=True, type=click.Path(), help="Ground truth: gt.jsonl or TuSimple labels.")
 @click.option("--pred", "pred_path", required=True, type=click.Path(),
-              help="Predictions: lanefinder telemetry (.csv/.jsonl) or TuSimple predictions.")
+              help="Predictions: lanefinder telemetry (.csv/.parquet/.jsonl) or TuSimple predictions.")
 @click.option("--json", "json_path", type=click.Path(), help="Also write the figures as JSON.")
-@click.option("--name", default="", help="Row label in the table.")
+@click.option("--name", default="", help="Row label in the table (default: the predictions' file name).")
 def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> None:
     """Score predictions: TuSimple accuracy/FP/FN, offset and curvature errors, catastrophic frames."""
     from dataclasses import asdict
@@ -375,6 +381,7 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
     if not predictions:
         raise LaneFinderError(f"{pred_path} holds no predictions (no rows)")
     report = evaluate(read_ground_truth(gt_path), predictions)
+    name = name or Path(pred_path).stem
     click.echo(report.table(name))
     if report.band_accuracy or report.lateral_err_6m_median is not None:  # the truth gives distances
         click.echo(report.band_table(name))
@@ -383,6 +390,20 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
     if json_path:
         atomic_write_text(json_path, json.dumps(asdict(report), indent=2) + "\n")
         click.echo(f"wrote {json_path}")
+
+
+def _quiet_interrupted_cluster() -> None:
+    """Silence what a local Dask cluster stopped while it started says as this process exits.
+
+    distributed closes its clusters at exit and asserts on one stopped half-way, and asyncio
+    reports the nannies' start-up tasks that never finished: tracebacks after the one line
+    that says the run was interrupted.
+    """
+    import logging
+
+    sys.unraisablehook = lambda unraisable: None  # "Exception ignored in atexit callback"
+    for name in ("asyncio", "distributed", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 # -- setup -------------------------------------------------------------------------------
@@ -488,6 +509,9 @@ def batch(inputs: tuple[str, ...], outdir: str, config_path: str | None, workers
     try:
         report = run_batch(list(inputs), outdir, _config(config_path), workers=workers, scheduler=scheduler,
                            write_video=write_video, progress=not quiet, echo=click.echo)
+    except KeyboardInterrupt:
+        _quiet_interrupted_cluster()
+        raise
     finally:
         if before is None:
             os.environ.pop("PYTHONWARNINGS", None)

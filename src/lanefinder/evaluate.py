@@ -349,7 +349,7 @@ def read_ground_truth(path: str | Path) -> dict[str, dict]:
 
 
 def read_predictions(path: str | Path) -> dict[str, dict]:
-    """Read predictions: lanefinder telemetry (CSV or JSONL) or TuSimple predictions.
+    """Read predictions: lanefinder telemetry (CSV, Parquet or JSONL) or TuSimple predictions.
 
     Parameters
     ----------
@@ -377,7 +377,7 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
     from .telemetry import read_telemetry
 
     p = Path(path)
-    rows = read_telemetry(p) if p.suffix.lower() == ".csv" else _read_jsonl(p)
+    rows = read_telemetry(p) if p.suffix.lower() in (".csv", ".parquet") else _read_jsonl(p)
     out = {}
     for i, r in enumerate(rows, 1):
         _check_row(r, p, i)

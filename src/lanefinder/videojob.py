@@ -506,6 +506,9 @@ def process_video(
             if isinstance(e, LaneFinderError):
                 raise e
             raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
+        if done == 0 and interrupted:
+            _stop(sink, writer)
+            raise KeyboardInterrupt  # before the first frame: nothing to keep
         if done == 0:
             _stop(sink, writer)
             span = f" from {start_s} s" if start_s else ""
