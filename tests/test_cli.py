@@ -169,6 +169,7 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         (["plot", "t.csv", "-o", "p.jpg"], "not p.jpg"),
         (["plot", "ab.csv", "-o", "p.png"], "not lanefinder telemetry"),
         (["eval", "--gt", "gt.jsonl", "--pred", "empty.csv"], "holds no predictions"),
+        (["config", "--check", "nocam.toml"], "camera file not found"),
         # a lens whose distortion shrinks the frame to a point, and frames too large to render
         (["synth", "--frames", "1", "--camera", "cam.json", "-o", "seq"], "dist_coeffs do not describe a lens"),
         (["synth", "--frames", "1", "--camera", "big.json", "-o", "seq"], "needs about"),
@@ -179,6 +180,7 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     (tmp_path / "t.csv").write_text("frame,time_s,radius_m\n0,0.0,500\n")
     (tmp_path / "ab.csv").write_text("a,b\n1,2\n")
     (tmp_path / "empty.csv").write_text("")
+    (tmp_path / "nocam.toml").write_text('[camera]\nmodel = "nope.json"\n')
     (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],
                                                    "right_x": [900]}) + "\n")
     _camera_file(tmp_path, dist_coeffs=[1e9, 0, 0, 0, 0])
@@ -189,3 +191,16 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     before = sorted(p.name for p in tmp_path.iterdir())
     assert_one_line_error(run(*args, cwd=tmp_path), needle)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+
+
+def test_eval_reads_parquet_telemetry_and_names_its_row(tmp_path):
+    seq = tmp_path / "seq"
+    assert run("synth", "--frames", "8", "-o", str(seq), "--quiet").returncode == 0
+    for ext in ("csv", "parquet"):
+        p = run("video", str(seq / "video.mp4"), "--telemetry", str(tmp_path / f"drive.{ext}"), "-c",
+                str(seq / "config.toml"), "--quiet")
+        assert p.returncode == 0, p.stderr
+    csv, parquet = (run("eval", "--gt", str(seq / "gt.jsonl"), "--pred", str(tmp_path / f"drive.{ext}"))
+                    for ext in ("csv", "parquet"))
+    assert parquet.returncode == 0, parquet.stderr
+    assert parquet.stdout == csv.stdout and "\ndrive " in parquet.stdout
