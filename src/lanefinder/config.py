@@ -557,6 +557,9 @@ class TrackingConfig(_Section):
         Frames one line alone may hold the lane.
     min_start_confidence : float
         Confidence a line needs to start (or re-place) a lane alone.
+    still_start_confidence : float
+        ... in a single still (``lanefinder image``), where no later frame can confirm or
+        correct a start: the other line is then drawn as inferred at the default lane width.
     start_frames : int
         Sightings a lone line needs to start a lane after one was lost.
     max_interior_fill, interior_strip_m, interior_excess, interior_min_pixels, interior_min_rows
@@ -602,6 +605,7 @@ class TrackingConfig(_Section):
     hold_gentle_radius_m: Annotated[float, Field(ge=0)] = 150.0
     max_one_line_frames: PositiveInt = 50
     min_start_confidence: Fraction = 0.45
+    still_start_confidence: Fraction = 0.3
     start_frames: PositiveInt = 3
     # No marking down the middle: set pixels in the middle half of a candidate lane, binned in
     # strips ``interior_strip_m`` wide (a strip counts on a row with ``interior_min_pixels``);

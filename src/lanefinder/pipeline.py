@@ -274,6 +274,8 @@ class LaneFinder:
         self._relaxed_measurer: Measurer | None = None
         self.last_birdseye: BirdsEye | None = None
         self._still_source: str | None = None  # a still's own set-up left in use: its label
+        self._in_still = False  # inside process_still: a lone line may start a lane more easily
+        self._still_measurer_for: tuple[Measurer, Measurer] | None = None
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -406,7 +408,8 @@ class LaneFinder:
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
         if not self.self_calibrate:
-            result = self.extend_far(frame, self.process_binary(binary, be, view), be)
+            measurer = self._still_measurer() if self._in_still else None
+            result = self.extend_far(frame, self.process_binary(binary, be, view, measurer), be)
             return result if self._still_source is None else replace(result, setup=self._still_source)
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
@@ -437,6 +440,10 @@ class LaneFinder:
         - with ``selfcal.still_lines``, the set-up the lines found in it give
           (:func:`lanefinder.selfcal.lines_setup`), kept when they are no less sure.
 
+        A still has no later frame to confirm a start, so one line may start its lane when
+        ``tracking.still_start_confidence`` (0.3) sure, the other drawn as inferred at the
+        default lane width (a video's start needs ``min_start_confidence``).
+
         That set-up stays in use (:meth:`birdseye` gives it, to draw the result, and
         :meth:`process` labels its frames with it) until the next still; call :meth:`reset`
         and :meth:`use_birdseye` before using the finder for a video.
@@ -466,6 +473,14 @@ class LaneFinder:
         >>> r.lane_found, r.setup
         (True, 'default')
         """
+        self._in_still = True
+        try:
+            return self._find_still(frame)
+        finally:
+            self._in_still = False
+
+    def _find_still(self, frame: np.ndarray) -> LaneResult:
+        """:meth:`process_still`'s work (a lone line may start the lane: ``tracking.still_start_confidence``)."""
         self.reset()
         self._still_source = None
         sc = self.config.selfcal
@@ -523,6 +538,19 @@ class LaneFinder:
         probe.reset()
         probe.use_birdseye(other)
         return _surer(probe.process(frame), with_be, self.config.selfcal.still_horizon_margin)
+
+    def _still_measurer(self) -> Measurer:
+        """Give the measuring settings for a single still (made once per set-up).
+
+        One line may start its lane there when ``tracking.still_start_confidence`` sure.
+        """
+        m = self.measurer
+        if self._still_measurer_for is None or self._still_measurer_for[0] is not m:
+            t = self.config.tracking
+            cfg = self.config.model_copy(update={"tracking": t.model_copy(
+                update={"min_start_confidence": t.still_start_confidence})})
+            self._still_measurer_for = (m, Measurer.build(cfg, m.scale))
+        return self._still_measurer_for[1]
 
     def _still_with(self, label: str, frame: np.ndarray) -> LaneResult:
         """Find a still afresh with the set-up just put in use, labelled (as later frames are) with its source."""
