@@ -126,6 +126,7 @@ def test_black_frame_is_reported_as_no_lane(tmp_path):
         ("[threshold]\nstrategy = \"magic\"\n", "threshold.strategy"),
         ("[tracking]\nmin_widht_m = 3\n", "tracking.min_widht_m: unknown key"),
         ("[birdseye]\nxm_per_px = -1\n", "birdseye.xm_per_px"),
+        ("[search]\nn_windows = true\n", "search.n_windows: expected a number, not true/false"),
     ],
 )
 def test_invalid_config_value_names_the_key(tmp_path, text, key):
