@@ -167,11 +167,17 @@ def test_batch_on_a_scheduler_and_worker_started_as_processes(tmp_path):
                 p.kill()
 
 
-def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
+def _three_clips(tmp_path: Path) -> Path:
+    """A folder of three copies of the harder challenge clip (100 frames each)."""
     inputs = tmp_path / "in"
     inputs.mkdir()
     for name in ("a", "b", "c"):
         shutil.copy(HARDER, inputs / f"{name}.mp4")
+    return inputs
+
+
+def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
+    inputs = _three_clips(tmp_path)
     out = tmp_path / "out"
     manifest = out / "manifest.json"
 
@@ -201,10 +207,7 @@ def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
 
 
 def test_ctrl_c_stops_a_batch_in_one_line(tmp_path):
-    inputs = tmp_path / "in"
-    inputs.mkdir()
-    for name in ("a", "b", "c"):
-        shutil.copy(HARDER, inputs / f"{name}.mp4")
+    inputs = _three_clips(tmp_path)
     out = tmp_path / "out"
     proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "2", "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
