@@ -282,8 +282,8 @@ class OutputSet:
             if part in self._inputs:
                 raise LaneFinderError(f"refusing {dest}: a stopped run would keep it as {partial_name(dest)}, "
                                       "which is an input; choose another output path")
-            named = {o.resolve() for o in self.outputs} | {partial_name(o).resolve() for o in self.outputs}
-            if part in named or real in {partial_name(o).resolve() for o in self.outputs}:
+            kept_as = {partial_name(o).resolve() for o in self.outputs}
+            if part in kept_as or part in {o.resolve() for o in self.outputs} or real in kept_as:
                 raise LaneFinderError(f"refusing {dest}: it and another output would share a name when a stopped "
                                       "run keeps them as .partial files; choose other output paths")
         if dest.is_dir():

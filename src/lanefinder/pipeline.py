@@ -268,14 +268,12 @@ class LaneFinder:
         self._birdseye: BirdsEye | None = None
         self._measurer: Measurer | None = None
         self._farview: tuple[BirdsEye, FarView | None] | None = None
-        self._far_cfg: tuple[Config, ThresholdConfig] | None = None
-        self._faint_cfg: tuple[Config, ThresholdConfig] | None = None
+        self._ridge_variants: dict[tuple, ThresholdConfig] = {}  # the threshold with ridge settings changed
         self._config_birdseye: BirdsEye | None = None
-        self._relaxed_measurer: Measurer | None = None
+        self._measurer_variants: dict[str, Measurer] = {}  # this set-up's, with settings changed
         self.last_birdseye: BirdsEye | None = None
         self._still_source: str | None = None  # a still's own set-up left in use: its label
         self._in_still = False  # inside process_still: a lone line may start a lane more easily
-        self._still_measurer_for: tuple[Measurer, Measurer] | None = None
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -313,9 +311,18 @@ class LaneFinder:
         return self.config.selfcal.fast_frames > 0 if self.selfcal is None else self.selfcal.searching
 
     def _build_measurer(self, be: BirdsEye) -> None:
-        """Build the measuring settings for a set-up (the relaxed ones when a frame first needs them)."""
+        """Build the measuring settings for a set-up (their variants when a frame first needs them)."""
         self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
-        self._relaxed_measurer = None
+        self._measurer_variants = {}
+
+    def _measurer_variant(self, name: str, fit: dict | None = None, tracking: dict | None = None) -> Measurer:
+        """Give the set-up's measuring settings with some ``fit`` and ``tracking`` settings changed, made once."""
+        if name not in self._measurer_variants:
+            cfg = self.config
+            changed = cfg.model_copy(update={"fit": cfg.fit.model_copy(update=fit or {}),
+                                             "tracking": cfg.tracking.model_copy(update=tracking or {})})
+            self._measurer_variants[name] = Measurer.build(changed, self.measurer.scale)
+        return self._measurer_variants[name]
 
     def _frame_measurer(self) -> Measurer:
         """Give the settings to measure this frame with: relaxed while unsure of the set-up on a road read as straight.
@@ -327,16 +334,12 @@ class LaneFinder:
         curves of unknown mounts, and the harder challenge video, lose without it).  Relaxed
         means as ``selfcal.unsure_*`` say.
         """
-        cfg, sc = self.config, self.config.selfcal
+        sc = self.config.selfcal
         if not self._unsure() or abs(self._curvature_per_m) * sc.unsure_radius_m > 1:  # NaN (no lane): relaxed
             return self.measurer
-        if self._relaxed_measurer is None:
-            relaxed = cfg.model_copy(update={
-                "fit": cfg.fit.model_copy(update={"parallel": sc.unsure_parallel}),
-                "tracking": cfg.tracking.model_copy(update={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
-                                                            "max_curvature_diff": sc.unsure_curvature_diff})})
-            self._relaxed_measurer = Measurer.build(relaxed, self.measurer.scale)
-        return self._relaxed_measurer
+        return self._measurer_variant("relaxed", fit={"parallel": sc.unsure_parallel},
+                                      tracking={"max_parallel_diff_m": sc.unsure_parallel_diff_m,
+                                                "max_curvature_diff": sc.unsure_curvature_diff})
 
     @property
     def measurer(self) -> Measurer:
@@ -544,13 +547,8 @@ class LaneFinder:
 
         One line may start its lane there when ``tracking.still_start_confidence`` sure.
         """
-        m = self.measurer
-        if self._still_measurer_for is None or self._still_measurer_for[0] is not m:
-            t = self.config.tracking
-            cfg = self.config.model_copy(update={"tracking": t.model_copy(
-                update={"min_start_confidence": t.still_start_confidence})})
-            self._still_measurer_for = (m, Measurer.build(cfg, m.scale))
-        return self._still_measurer_for[1]
+        start = self.config.tracking.still_start_confidence
+        return self._measurer_variant("still", tracking={"min_start_confidence": start})
 
     def _still_with(self, label: str, frame: np.ndarray) -> LaneResult:
         """Find a still afresh with the set-up just put in use, labelled (as later frames are) with its source."""
@@ -563,19 +561,20 @@ class LaneFinder:
         t = self.config.threshold
         if t.strategy != "ridge" or t.ridge.faint_contrast_max >= t.ridge.rel_contrast_max:
             return None
-        if self._faint_cfg is None or self._faint_cfg[0] is not self.config:
-            ridge = t.ridge.model_copy(update={"rel_contrast_max": t.ridge.faint_contrast_max})
-            self._faint_cfg = (self.config, t.model_copy(update={"ridge": ridge}))
-        return self._faint_cfg[1]
+        return self._ridge_variant(rel_contrast_max=t.ridge.faint_contrast_max)
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
-        if self._far_cfg is None or self._far_cfg[0] is not self.config:
-            t, nf = self.config.threshold, self.config.far.noise_factor
-            far = t if t.ridge.noise_factor == nf else t.model_copy(
-                update={"ridge": t.ridge.model_copy(update={"noise_factor": nf})})
-            self._far_cfg = (self.config, far)
-        return self._far_cfg[1]
+        return self._ridge_variant(noise_factor=self.config.far.noise_factor)
+
+    def _ridge_variant(self, **ridge) -> ThresholdConfig:
+        """Give the config's threshold settings with some ``threshold.ridge`` settings changed, made once."""
+        key = tuple(sorted(ridge.items()))
+        if key not in self._ridge_variants:
+            t = self.config.threshold
+            same = all(getattr(t.ridge, k) == v for k, v in ridge.items())
+            self._ridge_variants[key] = t if same else t.model_copy(update={"ridge": t.ridge.model_copy(update=ridge)})
+        return self._ridge_variants[key]
 
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).

@@ -283,6 +283,8 @@ class Review:
 
     Attributes
     ----------
+    path : Path
+        PATH, resolved (the folder, or the video).
     root : Path
         The folder whose files may be served.
     out_dir : Path

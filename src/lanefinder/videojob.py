@@ -506,11 +506,10 @@ def process_video(
             if isinstance(e, LaneFinderError):
                 raise e
             raise LaneFinderError(f"video processing failed after {done} frames: {e}") from e
-        if done == 0 and interrupted:
-            _stop(sink, writer)
-            raise KeyboardInterrupt  # before the first frame: nothing to keep
         if done == 0:
             _stop(sink, writer)
+            if interrupted:
+                raise KeyboardInterrupt  # before the first frame: nothing to keep
             span = f" from {start_s} s" if start_s else ""
             span += f" to {end_s} s" if end_s is not None else (" to the end" if span else "")
             raise NoFramesError(f"no frames could be decoded from {src}{span}")
