@@ -17,8 +17,9 @@ RIGHT = np.array([2e-4, 0.01, 1.9])
 RULES = Rules(TrackingConfig(), lookahead_m=29.6, default_width_m=3.7, scale=Scale(3.7 / 150, 0.0987, 300, 200.0))
 
 
-def meas(c, conf: float = 0.9) -> Line:
-    return Line(fit_px=None, fit_m=np.asarray(c, float), confidence=conf, found=True, inferred=False)
+def meas(c, conf: float = 0.9, range_m: float = float("nan")) -> Line:
+    return Line(fit_px=None, fit_m=np.asarray(c, float), confidence=conf, found=True, inferred=False,
+                range_m=range_m)
 
 
 class Tracker:
@@ -178,6 +179,25 @@ def test_after_the_lane_was_lost_a_weak_start_must_be_confirmed(tracker):
         assert t.state == LOST and "confirming" in t.reasons, i
     t = tracker.update(meas(LEFT, 0.5), None, blind=True)
     assert t.state == REDETECT and t.left.found and t.right.inferred
+
+
+def test_without_a_lane_a_weak_line_alone_starts_it_once_seen_in_one_place_long_enough(tracker):
+    cfg = tracker.cfg
+    n, weak = cfg.weak_start_frames, cfg.weak_start_confidence + 0.03
+    assert weak < cfg.min_start_confidence
+    # A marking seen only near the car (8 m, glare): its fit's far end wanders, its near part does not.
+    wander = [np.array([s * 2e-3, 0.0, 0.0]) for s in (1, -1) * n]
+    for i in range(n - 1):
+        t = tracker.update(meas(LEFT + wander[i], weak, range_m=8.0), None, blind=True)
+        assert t.state == LOST and "one-line-start" in t.reasons, i
+    t = tracker.update(meas(LEFT + wander[n - 1], weak, range_m=8.0), None, blind=True)
+    assert t.state == REDETECT and t.left.found and t.right.inferred and "one-line-start" not in t.reasons
+    # Weaker than weak_start_confidence, or moving about near the car: never.
+    for conf, shift in ((cfg.weak_start_confidence - 0.02, 0.0), (weak, 0.6)):
+        tracker.reset()
+        for i in range(3 * n):
+            t = tracker.update(meas(LEFT + [0, 0, shift * (i % 2)], conf, range_m=8.0), None, blind=True)
+            assert t.state == LOST, (conf, shift, i)
 
 
 def test_a_candidate_that_moves_is_not_confirmed(tracker):

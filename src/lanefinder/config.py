@@ -572,6 +572,11 @@ class TrackingConfig(_Section):
         correct a start: the other line is then drawn as inferred at the default lane width.
     start_frames : int
         Sightings a lone line needs to start a lane after one was lost.
+    weak_start_confidence, weak_start_frames : float, int
+        Without a lane, a lone line less sure than ``min_start_confidence`` but at least this
+        sure starts the lane when seen in the same place on this many frames (a gap of up to
+        ``start_frames`` allowed), the other line inferred at the tracked (or default) width:
+        a marking seen only near the car in glare or on worn paint (0 frames: never).
     max_interior_fill, interior_strip_m, interior_excess, interior_min_pixels, interior_min_rows
         The no-marking-down-the-middle check (see the comment in the source).
     smoothing, smoothing_conf_floor, smoothing_fast_gain, smoothing_min_gain : float
@@ -617,6 +622,8 @@ class TrackingConfig(_Section):
     min_start_confidence: Fraction = 0.45
     still_start_confidence: Fraction = 0.3
     start_frames: PositiveInt = 3
+    weak_start_confidence: Fraction = 0.3
+    weak_start_frames: Annotated[int, Field(ge=0, le=10_000)] = 5
     # No marking down the middle: set pixels in the middle half of a candidate lane, binned in
     # strips ``interior_strip_m`` wide (a strip counts on a row with ``interior_min_pixels``);
     # a strip filled on more than ``max_interior_fill`` of at least ``interior_min_rows`` rows,

@@ -276,7 +276,7 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     """Give the tracking settings for a video at ``fps``: the same times as at ``cfg.reference_fps``.
 
     Counts of frames (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
-    ``max_one_line_frames``, ``start_frames``) scale with the frame rate; a per-frame smoothing
+    ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``) scale with the frame rate; a per-frame smoothing
     gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
     ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
     same seconds; a lone line still needs at least two sightings to start a lane after a lost one
@@ -319,6 +319,7 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
         "max_misses": count(cfg.max_misses), "lost_after": count(cfg.lost_after),
         "hold_gentle_frames": count(cfg.hold_gentle_frames), "max_one_line_frames": count(cfg.max_one_line_frames),
         "start_frames": max(min(2, cfg.start_frames), count(cfg.start_frames)),
+        "weak_start_frames": count(cfg.weak_start_frames) if cfg.weak_start_frames else 0,
         "smoothing": cfg.smoothing ** (1 / ratio),
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
         "width_smoothing": gain(cfg.width_smoothing), "reference_fps": fps})
@@ -376,18 +377,40 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
     return held, Verdict(left, right, REDETECT if blind else TRACKING, misses, tuple(reasons))
 
 
-def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules) -> tuple[Candidate, bool]:
-    """Count sightings of the same candidate lane.
+def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules,
+             need: int | None = None, lookahead_m: float | None = None) -> tuple[Candidate, bool]:
+    """Count sightings of the same candidate lane (the same as far as ``lookahead_m``, the view's end by default).
 
     A gap of up to ``start_frames`` frames is allowed between them; a pair needs two
-    sightings, one line ``start_frames``.
+    sightings, one line ``start_frames`` (or ``need``).
     """
     prev = track.candidate
+    ahead = rules.lookahead_m if lookahead_m is None else lookahead_m
     same = prev is not None and all(
-        lines_close(f, p, rules.lookahead_m, rules.cfg) for f, p in zip(fits, prev.fits_m, strict=True))
+        lines_close(f, p, ahead, rules.cfg) for f, p in zip(fits, prev.fits_m, strict=True))
     count = prev.sightings + 1 if same and prev is not None else 1
     cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0)
-    return cand, count >= (2 if pair else rules.cfg.start_frames)
+    return cand, count >= (need if need is not None else 2 if pair else rules.cfg.start_frames)
+
+
+def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
+                rules: Rules) -> Candidate | None:
+    """Rule 3's exception: without a lane, a lone weak line seen in the same place long enough starts it.
+
+    Gives the candidate counted (None: the line is too weak, or the rule is off); it starts the
+    lane once seen on ``weak_start_frames`` frames (:func:`_confirm`), the same as far as it is
+    seen (a short marking's fit wanders beyond).
+    """
+    c = rules.cfg
+    i = 0 if ok[0] else 1
+    if track.has_lane or not c.weak_start_frames or conf[i] < c.weak_start_confidence:
+        return None
+    seen_m = measured[i].range_m  # type: ignore[union-attr]
+    ahead = min(rules.lookahead_m, seen_m) if math.isfinite(seen_m) and seen_m > 0 else rules.lookahead_m
+    width = track.width_m if track.width_m is not None else rules.default_width_m
+    fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
+                        measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
+    return _confirm(track, fits, False, rules, need=c.weak_start_frames, lookahead_m=ahead)[0]
 
 
 def _near_track(track: Track, measured: Pair, ok: list[bool], rules: Rules) -> list[bool]:
@@ -509,6 +532,13 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     if ok[0] != ok[1]:
         lone = check_one_line(conf[0] if ok[0] else conf[1], track.needs_blind_search(c), track.since_both, c)
         reasons.extend([lone] if lone else [])
+        if lone == "one-line-start" and (weak := _weak_start(track, measured, ok, conf, rules)) is not None:
+            if weak.sightings < c.weak_start_frames:
+                return _miss(replace(track, candidate=weak), reasons, conf_t, measured, blind, rules,
+                             keep_candidate=True)
+            lone = None  # seen long enough: it starts the lane (rule 4 sees it confirmed)
+            reasons.remove("one-line-start")
+            track = replace(track, candidate=weak)
     if lone or not (ok[0] or ok[1]):
         return _miss(track, reasons, conf_t, measured, blind, rules)
 
