@@ -377,20 +377,35 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
     return held, Verdict(left, right, REDETECT if blind else TRACKING, misses, tuple(reasons))
 
 
-def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules,
-             need: int | None = None, lookahead_m: float | None = None) -> tuple[Candidate, bool]:
-    """Count sightings of the same candidate lane (the same as far as ``lookahead_m``, the view's end by default).
+def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules, ahead_m: tuple[float, float],
+             need: int | None = None) -> tuple[Candidate, bool]:
+    """Count sightings of the same candidate lane, each line compared as far ahead as ``ahead_m`` says.
 
     A gap of up to ``start_frames`` frames is allowed between them; a pair needs two
     sightings, one line ``start_frames`` (or ``need``).
     """
     prev = track.candidate
-    ahead = rules.lookahead_m if lookahead_m is None else lookahead_m
     same = prev is not None and all(
-        lines_close(f, p, ahead, rules.cfg) for f, p in zip(fits, prev.fits_m, strict=True))
+        lines_close(f, p, a, rules.cfg) for f, p, a in zip(fits, prev.fits_m, ahead_m, strict=True))
     count = prev.sightings + 1 if same and prev is not None else 1
     cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0)
     return cand, count >= (need if need is not None else 2 if pair else rules.cfg.start_frames)
+
+
+def _seen_ahead_m(measured: Pair, ok: list[bool], rules: Rules) -> tuple[float, float]:
+    """Per line, how far ahead a candidate's line is compared: as far as its marking reaches.
+
+    A short marking's fit wanders beyond its reach (most in a tight bend), so a candidate is
+    compared only where it was seen; an inferred line as far as the line it is drawn from,
+    and a line of unknown reach to the view's end.
+    """
+    reach = []
+    for m, taken in zip(measured, ok, strict=True):
+        r = m.range_m if taken and m is not None else math.nan
+        reach.append(min(rules.lookahead_m, r) if math.isfinite(r) and r > 0 else math.nan)
+    out = [r if math.isfinite(r) else (reach[1 - i] if ok[1 - i] and math.isfinite(reach[1 - i]) else rules.lookahead_m)
+           for i, r in enumerate(reach)]
+    return out[0], out[1]
 
 
 def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
@@ -405,12 +420,10 @@ def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
     i = 0 if ok[0] else 1
     if track.has_lane or not c.weak_start_frames or conf[i] < c.weak_start_confidence:
         return None
-    seen_m = measured[i].range_m  # type: ignore[union-attr]
-    ahead = min(rules.lookahead_m, seen_m) if math.isfinite(seen_m) and seen_m > 0 else rules.lookahead_m
     width = track.width_m if track.width_m is not None else rules.default_width_m
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    return _confirm(track, fits, False, rules, need=c.weak_start_frames, lookahead_m=ahead)[0]
+    return _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=c.weak_start_frames)[0]
 
 
 def _near_track(track: Track, measured: Pair, ok: list[bool], rules: Rules) -> list[bool]:
@@ -459,14 +472,14 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
 
 
 def _unconfirmed(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float],
-                 rules: Rules) -> Candidate | None:
+                 rules: Rules, ahead_m: tuple[float, float]) -> Candidate | None:
     """Rule 4: after a lost lane, the candidate a weak start still waits on (None: go ahead)."""
     if track.has_lane or not track.was_lost:
         return None
     both = ok[0] and ok[1]
     if both and min(conf) >= rules.cfg.min_start_confidence:
         return None
-    cand, confirmed = _confirm(track, fits, both, rules)
+    cand, confirmed = _confirm(track, fits, both, rules, ahead_m)
     return None if confirmed else cand
 
 
@@ -546,7 +559,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     width = track.width_m if track.width_m is not None else rules.default_width_m
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    if (cand := _unconfirmed(track, fits, ok, conf, rules)) is not None:
+    if (cand := _unconfirmed(track, fits, ok, conf, rules, _seen_ahead_m(measured, ok, rules))) is not None:
         # A weak start must be seen again in the same place before it is shown.
         reasons.append("confirming")
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
