@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from fractions import Fraction
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from lanefinder.config import TrackingConfig
 from lanefinder.geometry import Scale
 from lanefinder.lane import LOST, REDETECT, TRACKING, Line
-from lanefinder.tracking import Rules, Track, Verdict, implied_lane, step
+from lanefinder.tracking import Rules, Track, Verdict, at_fps, implied_lane, step
 
 LEFT = np.array([2e-4, 0.01, -1.8])
 RIGHT = np.array([2e-4, 0.01, 1.9])
@@ -25,12 +26,13 @@ def meas(c, conf: float = 0.9, range_m: float = float("nan")) -> Line:
 class Tracker:
     """Threads the track through ``step`` frame by frame, as the pipeline does."""
 
-    def __init__(self) -> None:
-        self.cfg = RULES.cfg
+    def __init__(self, rules: Rules = RULES) -> None:
+        self.rules = rules
+        self.cfg = rules.cfg
         self.track = Track()
 
     def update(self, left: Line | None, right: Line | None, blind: bool) -> Verdict:
-        self.track, verdict = step(self.track, (left, right), blind, RULES)
+        self.track, verdict = step(self.track, (left, right), blind, self.rules)
         return verdict
 
     @property
@@ -192,12 +194,45 @@ def test_without_a_lane_a_weak_line_alone_starts_it_once_seen_in_one_place_long_
         assert t.state == LOST and "one-line-start" in t.reasons, i
     t = tracker.update(meas(LEFT + wander[n - 1], weak, range_m=8.0), None, blind=True)
     assert t.state == REDETECT and t.left.found and t.right.inferred and "one-line-start" not in t.reasons
-    # Weaker than weak_start_confidence, or moving about near the car: never.
-    for conf, shift in ((cfg.weak_start_confidence - 0.02, 0.0), (weak, 0.6)):
-        tracker.reset()
-        for i in range(3 * n):
-            t = tracker.update(meas(LEFT + [0, 0, shift * (i % 2)], conf, range_m=8.0), None, blind=True)
-            assert t.state == LOST, (conf, shift, i)
+    # Moving 0.6 m a frame near the car: never.
+    tracker.reset()
+    for i in range(3 * n):
+        t = tracker.update(meas(LEFT + [0, 0, 0.6 * i], weak, range_m=8.0), None, blind=True)
+        assert t.state == LOST, i
+    # Weaker than weak_start_confidence (above min_confidence): never.
+    stricter = Tracker(replace(RULES, cfg=cfg.model_copy(update={"weak_start_confidence": 0.35})))
+    for i in range(3 * n):
+        t = stricter.update(meas(LEFT, 0.33, range_m=8.0), None, blind=True)
+        assert t.state == LOST and "one-line-start" in t.reasons, i
+
+
+def test_a_weak_line_alone_never_starts_sooner_than_a_confident_one_nor_displaces_its_candidate(tracker):
+    cfg = tracker.cfg
+    _lose(tracker)
+    # A confident lone line waits on start_frames (3) sightings; weak lines elsewhere in between
+    # are plain misses and do not wipe its count.
+    for i in range(cfg.start_frames - 1):
+        assert tracker.update(meas(LEFT, 0.5), None, blind=True).state == LOST
+        t = tracker.update(meas(LEFT + [0, 0, 1.0], 0.33), None, blind=True)
+        assert t.state == LOST and "one-line-start" in t.reasons, i
+    t = tracker.update(meas(LEFT, 0.5), None, blind=True)
+    assert t.state == REDETECT and t.left.found
+    # weak_start_frames = 1 still needs start_frames sightings, at 25 fps and at 5 fps.
+    one = Tracker(replace(RULES, cfg=cfg.model_copy(update={"weak_start_frames": 1})))
+    states = [one.update(meas(LEFT, 0.33), None, blind=True).state for _ in range(cfg.start_frames)]
+    assert states == [LOST] * (cfg.start_frames - 1) + [REDETECT]
+    assert at_fps(cfg.model_copy(update={"weak_start_frames": 5}), 5.0).weak_start_frames == 2
+    assert at_fps(cfg.model_copy(update={"weak_start_frames": 0}), 5.0).weak_start_frames == 0
+
+
+def test_a_candidate_pair_is_compared_as_far_as_its_lines_reach(tracker):
+    _lose(tracker)
+    # A weak pair seen to 8 m whose fits swing by 3.6 m at the view's end (29.6 m): the same
+    # lane near the car, so its second sighting starts it.
+    for i, bend in enumerate((2e-3, -2e-3)):
+        swing = np.array([bend, 0.0, 0.0])
+        t = tracker.update(meas(LEFT + swing, 0.35, range_m=8.0), meas(RIGHT + swing, 0.35, range_m=8.0), blind=True)
+        assert t.state == (LOST if i == 0 else REDETECT), i
 
 
 def test_a_candidate_that_moves_is_not_confirmed(tracker):

@@ -556,7 +556,7 @@ class TrackingConfig(_Section):
         Misses after which the lane is lost ...
     reference_fps : float
         The frame rate the counts (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
-        ``max_one_line_frames``, ``start_frames``) and per-frame gains (``smoothing``,
+        ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``) and per-frame gains (``smoothing``,
         ``smoothing_fast_gain``, ``smoothing_min_gain``, ``width_smoothing``) are set for; a video
         at another rate gets them scaled to the same times (:func:`lanefinder.tracking.at_fps`).
     hold_gentle_frames, hold_gentle_radius_m : int, float
@@ -574,9 +574,12 @@ class TrackingConfig(_Section):
         Sightings a lone line needs to start a lane after one was lost.
     weak_start_confidence, weak_start_frames : float, int
         Without a lane, a lone line less sure than ``min_start_confidence`` but at least this
-        sure starts the lane when seen in the same place on this many frames (a gap of up to
-        ``start_frames`` allowed), the other line inferred at the tracked (or default) width:
-        a marking seen only near the car in glare or on worn paint (0 frames: never).
+        sure (and at least ``min_confidence``, or it is not used at all) starts the lane when
+        seen in the same place, as far as it reaches, on this many frames (never fewer than
+        ``start_frames``; a gap of up to ``start_frames`` allowed), the other line inferred at
+        the default lane width: a marking seen only near the car in glare or on worn paint
+        (0 frames: never).  It displaces no other candidate: one waiting elsewhere keeps its
+        place.
     max_interior_fill, interior_strip_m, interior_excess, interior_min_pixels, interior_min_rows
         The no-marking-down-the-middle check (see the comment in the source).
     smoothing, smoothing_conf_floor, smoothing_fast_gain, smoothing_min_gain : float

@@ -13,7 +13,8 @@ The rules, in the order :func:`step` applies them:
    the track expects it).
 2. A measured pair must pass the lane checks (:func:`~lanefinder.checks.pair_problems`); a
    failing pair keeps the line nearer its track (or the more confident one without a track).
-3. One line alone must be confident to place the lane, and holds it only so long.
+3. One line alone must be confident to place the lane, and holds it only so long; without a lane,
+   a less sure one places it once seen in the same place on ``weak_start_frames`` frames.
 4. After the lane was lost, a weak start must be seen again in the same place (``confirming``).
 5. The lane implied by what is left must hold the car (``offset``).
 6. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
@@ -82,6 +83,9 @@ class Candidate:
         How often it was seen in the same place.
     age : int
         Frames since it was last seen.
+    ahead_m : tuple of float
+        Per line, how far ahead it was seen (the next sighting is compared with it no farther),
+        metres.
 
     Examples
     --------
@@ -92,6 +96,7 @@ class Candidate:
     fits_m: tuple[Fit, Fit]
     sightings: int
     age: int = 0
+    ahead_m: tuple[float, float] = (math.inf, math.inf)
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,7 +324,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
         "max_misses": count(cfg.max_misses), "lost_after": count(cfg.lost_after),
         "hold_gentle_frames": count(cfg.hold_gentle_frames), "max_one_line_frames": count(cfg.max_one_line_frames),
         "start_frames": max(min(2, cfg.start_frames), count(cfg.start_frames)),
-        "weak_start_frames": count(cfg.weak_start_frames) if cfg.weak_start_frames else 0,
+        "weak_start_frames": max(min(2, cfg.weak_start_frames), count(cfg.weak_start_frames))
+        if cfg.weak_start_frames else 0,
         "smoothing": cfg.smoothing ** (1 / ratio),
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
         "width_smoothing": gain(cfg.width_smoothing), "reference_fps": fps})
@@ -379,16 +385,18 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
 
 def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules, ahead_m: tuple[float, float],
              need: int | None = None) -> tuple[Candidate, bool]:
-    """Count sightings of the same candidate lane, each line compared as far ahead as ``ahead_m`` says.
+    """Count sightings of the same candidate lane, each line compared as far as both sightings reach.
 
-    A gap of up to ``start_frames`` frames is allowed between them; a pair needs two
-    sightings, one line ``start_frames`` (or ``need``).
+    ``ahead_m`` is how far this sighting's lines reach (:func:`_seen_ahead_m`). A gap of up to
+    ``start_frames`` frames is allowed between sightings; a pair needs two, one line
+    ``start_frames`` (or ``need``).
     """
     prev = track.candidate
     same = prev is not None and all(
-        lines_close(f, p, a, rules.cfg) for f, p, a in zip(fits, prev.fits_m, ahead_m, strict=True))
+        lines_close(f, p, min(a, b), rules.cfg)
+        for f, p, a, b in zip(fits, prev.fits_m, ahead_m, prev.ahead_m, strict=True))
     count = prev.sightings + 1 if same and prev is not None else 1
-    cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0)
+    cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0, ahead_m)
     return cand, count >= (need if need is not None else 2 if pair else rules.cfg.start_frames)
 
 
@@ -396,8 +404,9 @@ def _seen_ahead_m(measured: Pair, ok: list[bool], rules: Rules) -> tuple[float, 
     """Per line, how far ahead a candidate's line is compared: as far as its marking reaches.
 
     A short marking's fit wanders beyond its reach (most in a tight bend), so a candidate is
-    compared only where it was seen; an inferred line as far as the line it is drawn from,
-    and a line of unknown reach to the view's end.
+    compared only where it was seen (at most to the view's end).  A line not measured (inferred)
+    or of unknown reach is compared as far as the other, measured line reaches, else to the
+    view's end.
     """
     reach = []
     for m, taken in zip(measured, ok, strict=True):
@@ -409,12 +418,14 @@ def _seen_ahead_m(measured: Pair, ok: list[bool], rules: Rules) -> tuple[float, 
 
 
 def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
-                rules: Rules) -> Candidate | None:
+                rules: Rules) -> tuple[Candidate, bool] | None:
     """Rule 3's exception: without a lane, a lone weak line seen in the same place long enough starts it.
 
-    Gives the candidate counted (None: the line is too weak, or the rule is off); it starts the
-    lane once seen on ``weak_start_frames`` frames (:func:`_confirm`), the same as far as it is
-    seen (a short marking's fit wanders beyond).
+    Gives the candidate counted and whether it is confirmed (None: the line is too weak, the
+    rule is off, or another candidate waits elsewhere, which a weak line does not displace).  It
+    is confirmed once seen on ``weak_start_frames`` frames, and never on fewer than a
+    confident lone line needs (``start_frames``), the same as far as it is seen
+    (:func:`_confirm`: a short marking's fit wanders beyond).
     """
     c = rules.cfg
     i = 0 if ok[0] else 1
@@ -423,7 +434,11 @@ def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
     width = track.width_m if track.width_m is not None else rules.default_width_m
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    return _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=c.weak_start_frames)[0]
+    need = max(c.weak_start_frames, c.start_frames)
+    cand, confirmed = _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=need)
+    if cand.sightings == 1 and track.candidate is not None:
+        return None  # not where the waiting candidate is: a plain miss, as before
+    return cand, confirmed
 
 
 def _near_track(track: Track, measured: Pair, ok: list[bool], rules: Rules) -> list[bool]:
@@ -541,17 +556,16 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     if ok[0] and ok[1]:
         conf = _settle_pair(track, measured, ok, conf, rules, reasons)
     conf_t = (conf[0], conf[1])
-    lone = None
+    lone, weak_started = None, False
     if ok[0] != ok[1]:
         lone = check_one_line(conf[0] if ok[0] else conf[1], track.needs_blind_search(c), track.since_both, c)
         reasons.extend([lone] if lone else [])
         if lone == "one-line-start" and (weak := _weak_start(track, measured, ok, conf, rules)) is not None:
-            if weak.sightings < c.weak_start_frames:
-                return _miss(replace(track, candidate=weak), reasons, conf_t, measured, blind, rules,
+            if not weak[1]:
+                return _miss(replace(track, candidate=weak[0]), reasons, conf_t, measured, blind, rules,
                              keep_candidate=True)
-            lone = None  # seen long enough: it starts the lane (rule 4 sees it confirmed)
+            lone, weak_started = None, True  # seen long enough: it starts the lane, confirmed
             reasons.remove("one-line-start")
-            track = replace(track, candidate=weak)
     if lone or not (ok[0] or ok[1]):
         return _miss(track, reasons, conf_t, measured, blind, rules)
 
@@ -559,7 +573,8 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     width = track.width_m if track.width_m is not None else rules.default_width_m
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    if (cand := _unconfirmed(track, fits, ok, conf, rules, _seen_ahead_m(measured, ok, rules))) is not None:
+    if not weak_started and (cand := _unconfirmed(track, fits, ok, conf, rules,
+                                                  _seen_ahead_m(measured, ok, rules))) is not None:
         # A weak start must be seen again in the same place before it is shown.
         reasons.append("confirming")
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
