@@ -578,8 +578,8 @@ class TrackingConfig(_Section):
         seen in the same place, as far as it reaches, on this many frames (never fewer than
         ``start_frames``; a gap of up to ``start_frames`` allowed), the other line inferred at
         the default lane width: a marking seen only near the car in glare or on worn paint
-        (0 frames: never).  It displaces no other candidate: one waiting elsewhere keeps its
-        place.
+        (0 frames: never).  It displaces no surer candidate: a pair or a confident line
+        waiting elsewhere keeps its place.
     max_interior_fill, interior_strip_m, interior_excess, interior_min_pixels, interior_min_rows
         The no-marking-down-the-middle check (see the comment in the source).
     smoothing, smoothing_conf_floor, smoothing_fast_gain, smoothing_min_gain : float

@@ -86,6 +86,9 @@ class Candidate:
     ahead_m : tuple of float
         Per line, how far ahead it was seen (the next sighting is compared with it no farther),
         metres.
+    weak : bool
+        It is a lone line less sure than a start needs (``weak_start_confidence``), which
+        another weak line may displace.
 
     Examples
     --------
@@ -97,6 +100,7 @@ class Candidate:
     sightings: int
     age: int = 0
     ahead_m: tuple[float, float] = (math.inf, math.inf)
+    weak: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -384,7 +388,7 @@ def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured:
 
 
 def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules, ahead_m: tuple[float, float],
-             need: int | None = None) -> tuple[Candidate, bool]:
+             need: int | None = None, weak: bool = False) -> tuple[Candidate, bool]:
     """Count sightings of the same candidate lane, each line compared as far as both sightings reach.
 
     ``ahead_m`` is how far this sighting's lines reach (:func:`_seen_ahead_m`). A gap of up to
@@ -396,7 +400,7 @@ def _confirm(track: Track, fits: tuple[Fit, Fit], pair: bool, rules: Rules, ahea
         lines_close(f, p, min(a, b), rules.cfg)
         for f, p, a, b in zip(fits, prev.fits_m, ahead_m, prev.ahead_m, strict=True))
     count = prev.sightings + 1 if same and prev is not None else 1
-    cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0, ahead_m)
+    cand = Candidate((fits[0].copy(), fits[1].copy()), count, 0, ahead_m, weak)
     return cand, count >= (need if need is not None else 2 if pair else rules.cfg.start_frames)
 
 
@@ -422,7 +426,7 @@ def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
     """Rule 3's exception: without a lane, a lone weak line seen in the same place long enough starts it.
 
     Gives the candidate counted and whether it is confirmed (None: the line is too weak, the
-    rule is off, or another candidate waits elsewhere, which a weak line does not displace).  It
+    rule is off, or a surer candidate waits elsewhere, which a weak line does not displace).  It
     is confirmed once seen on ``weak_start_frames`` frames, and never on fewer than a
     confident lone line needs (``start_frames``), the same as far as it is seen
     (:func:`_confirm`: a short marking's fit wanders beyond).
@@ -435,9 +439,9 @@ def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
     need = max(c.weak_start_frames, c.start_frames)
-    cand, confirmed = _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=need)
-    if cand.sightings == 1 and track.candidate is not None:
-        return None  # not where the waiting candidate is: a plain miss, as before
+    cand, confirmed = _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=need, weak=True)
+    if cand.sightings == 1 and track.candidate is not None and not track.candidate.weak:
+        return None  # not where a surer candidate waits: a plain miss, as before
     return cand, confirmed
 
 
