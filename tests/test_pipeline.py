@@ -162,6 +162,23 @@ def test_a_solid_marking_inside_the_lane_rejects_it_but_clutter_does_not(middle,
     assert ("line-inside-lane" in r.checks) is (not found)
 
 
+def test_a_lane_refused_for_a_line_inside_it_is_searched_again_nearer_the_car():
+    # A bright verge (12 px wide) beyond the true edge line (6 px): the strongest pair takes
+    # the verge, and the edge line runs inside that lane; the second search takes the edge line.
+    be = LaneFinder(Config()).birdseye((1280, 720))
+    w, h = be.size
+    b = np.zeros((h, w), np.uint8)
+    b[:, 122:128] = 1
+    b[:, 247:253] = 1
+    b[:, 299:311] = 1
+    r = LaneFinder(Config()).process_binary(b, be)
+    assert r.lane_found and "line-inside-lane" not in r.checks, r.checks
+    assert abs(float(np.polyval(r.right.fit_px, h)) - 250) < 3
+    off = Config.model_validate({"search": {"inner_retry_preference": 0}})
+    r = LaneFinder(off).process_binary(b, be)
+    assert not r.lane_found and "line-inside-lane" in r.checks
+
+
 def _slanted_lane_binary(finder: LaneFinder, heading_deg: float, width_m: float = 3.7) -> np.ndarray:
     """Bird's-eye binary of a straight lane centred on the car, heading ``heading_deg`` to the right."""
     be = finder.birdseye((1280, 720))

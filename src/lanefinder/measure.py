@@ -13,6 +13,9 @@
    then passes the lane checks.
 5. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
    (``tracking.yellow_line_side``), and no solid marking down the middle of the lane.
+6. A blind search whose lane fails that last check (a bright verge or a kerb taken for its
+   line, and the true line inside the lane) is made again preferring the markings nearest the
+   car (``search.inner_retry_preference``), and that lane is taken when it passes.
 """
 
 from __future__ import annotations
@@ -258,6 +261,19 @@ def measure(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measur
     ('line-inside-lane',)
     """
     px = pixels if pixels is not None else Pixels.of(binary)
+    got = _measure_with(binary, view, track, m, px)
+    retry = m.config.search.inner_retry_preference
+    if got.blind and "line-inside-lane" in got.reasons and m.search.inner_preference < retry:
+        # The lane straddled a marking: its lines were likely beyond the true ones (step 6).
+        inner = replace(m, search=replace(m.search, inner_preference=retry))
+        again = _measure_with(binary, view, track, inner, px)
+        if "line-inside-lane" not in again.reasons and all(line is not None for line in again.lines):
+            return again
+    return got
+
+
+def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer, px: Pixels) -> Measured:
+    """Measure with one set of search settings: steps 1-5 of :func:`measure`."""
     found, fits, blind = find_lines(binary, px, track, m)
     lines = (_line(fits[0], found.left.y, m.scale), _line(fits[1], found.right.y, m.scale))
     reasons: list[str] = []
