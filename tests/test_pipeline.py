@@ -162,21 +162,28 @@ def test_a_solid_marking_inside_the_lane_rejects_it_but_clutter_does_not(middle,
     assert ("line-inside-lane" in r.checks) is (not found)
 
 
-def test_a_lane_refused_for_a_line_inside_it_is_searched_again_nearer_the_car():
-    # A bright verge (12 px wide) beyond the true edge line (6 px): the strongest pair takes
-    # the verge, and the edge line runs inside that lane; the second search takes the edge line.
+@pytest.mark.parametrize("edge_px", [250, 262])
+def test_a_blind_lane_that_straddles_a_line_is_searched_again_nearer_the_car(edge_px):
+    # A bright verge (12 px wide) beyond the true edge line (6 px): the strongest pair takes the
+    # verge, and the edge line runs inside that lane, in its middle half (250 px: the lane is
+    # refused) or nearer its right line (262 px: within inner_retry_span). The second search
+    # takes the edge line, also when inner_preference is set stricter than the retry's.
     be = LaneFinder(Config()).birdseye((1280, 720))
     w, h = be.size
     b = np.zeros((h, w), np.uint8)
     b[:, 122:128] = 1
-    b[:, 247:253] = 1
+    b[:, edge_px - 3:edge_px + 3] = 1
     b[:, 299:311] = 1
-    r = LaneFinder(Config()).process_binary(b, be)
-    assert r.lane_found and "line-inside-lane" not in r.checks, r.checks
-    assert abs(float(np.polyval(r.right.fit_px, h)) - 250) < 3
+    for cfg in (Config(), Config.model_validate({"search": {"inner_preference": 0.9}})):
+        r = LaneFinder(cfg).process_binary(b, be)
+        assert r.lane_found and "line-inside-lane" not in r.checks, r.checks
+        assert abs(float(np.polyval(r.right.fit_px, h)) - edge_px) < 3
     off = Config.model_validate({"search": {"inner_retry_preference": 0}})
     r = LaneFinder(off).process_binary(b, be)
-    assert not r.lane_found and "line-inside-lane" in r.checks
+    if edge_px == 250:
+        assert not r.lane_found and "line-inside-lane" in r.checks
+    else:
+        assert r.lane_found and abs(float(np.polyval(r.right.fit_px, h)) - 305) < 3  # the verge
 
 
 def _slanted_lane_binary(finder: LaneFinder, heading_deg: float, width_m: float = 3.7) -> np.ndarray:

@@ -464,11 +464,12 @@ def yellow_side(x_at_car_m: tuple[float | None, float | None], yellow: tuple[boo
 
 
 def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, scale: Scale,
-                      cfg: TrackingConfig) -> str | None:
+                      cfg: TrackingConfig, half_width: float = 0.25) -> str | None:
     """Fail a lane with a solid marking down its middle half (a centre line the lane straddles).
 
-    Set pixels in the middle half of the lane are placed by their distance from the lane
-    centre, in strips ``interior_strip_m`` wide; a marking parallel to the lane keeps to one
+    Set pixels in the middle half of the lane (or within ``half_width`` of its width either
+    side of its centre) are placed by their distance from the lane centre, in strips
+    ``interior_strip_m`` wide; a marking parallel to the lane keeps to one
     strip (or two neighbours) on more than ``max_interior_fill`` of the rows, and on
     ``interior_excess`` more of them than the median strip, while shadows and cracks wander
     across strips.
@@ -483,6 +484,9 @@ def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, s
         The bird's-eye scale.
     cfg : TrackingConfig
         The limits.
+    half_width : float, optional
+        How far either side of the lane's centre is looked at, as a fraction of its width
+        (0.25: the middle half).
 
     Returns
     -------
@@ -502,7 +506,7 @@ def check_line_inside(pixels: Pixels, left_m: np.ndarray, right_m: np.ndarray, s
     h, w = pixels.shape
     rows = np.arange(h, dtype=np.float64)
     xl, xr = poly_x(m_to_px(left_m, scale), rows), poly_x(m_to_px(right_m, scale), rows)
-    centre, quarter = (xl + xr) / 2, (xr - xl) / 4
+    centre, quarter = (xl + xr) / 2, (xr - xl) * half_width
     valid = (quarter > 0) & (centre - quarter >= 0) & (centre + quarter < w)
     if valid.sum() <= cfg.interior_min_rows:
         return None

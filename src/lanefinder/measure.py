@@ -13,9 +13,12 @@
    then passes the lane checks.
 5. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
    (``tracking.yellow_line_side``), and no solid marking down the middle of the lane.
-6. A blind search whose lane fails that last check (a bright verge or a kerb taken for its
-   line, and the true line inside the lane) is made again preferring the markings nearest the
-   car (``search.inner_retry_preference``), and that lane is taken when it passes.
+6. A blind search whose lane straddles a solid marking (in its middle half: refused by that
+   last check; or nearer its lines, within ``search.inner_retry_span`` of its width from its
+   centre): a bright verge or a kerb taken for a line, the true line inside the lane.  The
+   search is made again preferring the markings nearest the car
+   (``search.inner_retry_preference``), and that lane is taken when it has both lines and
+   passes the checks (its search's method then ends in ``+inner``).
 """
 
 from __future__ import annotations
@@ -262,14 +265,26 @@ def measure(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measur
     """
     px = pixels if pixels is not None else Pixels.of(binary)
     got = _measure_with(binary, view, track, m, px)
-    retry = m.config.search.inner_retry_preference
-    if got.blind and "line-inside-lane" in got.reasons and m.search.inner_preference < retry:
-        # The lane straddled a marking: its lines were likely beyond the true ones (step 6).
-        inner = replace(m, search=replace(m.search, inner_preference=retry))
+    sc = m.config.search
+    # inner_preference: 0 is off, and a higher value asks more of the inner pair.
+    looser = sc.inner_retry_preference > 0 and not 0 < m.search.inner_preference <= sc.inner_retry_preference
+    if got.blind and looser and _straddles(got, px, m):
+        # The lane straddles a marking: its lines were likely beyond the true ones (step 6).
+        inner = replace(m, search=replace(m.search, inner_preference=sc.inner_retry_preference))
         again = _measure_with(binary, view, track, inner, px)
         if "line-inside-lane" not in again.reasons and all(line is not None for line in again.lines):
-            return again
+            return replace(again, search=replace(again.search, method=f"{again.search.method}+inner"))
     return got
+
+
+def _straddles(got: Measured, px: Pixels, m: Measurer) -> bool:
+    """Tell whether a measured lane has a solid marking inside it (``search.inner_retry_span``)."""
+    if "line-inside-lane" in got.reasons:
+        return True
+    if got.lines[0] is None or got.lines[1] is None:
+        return False
+    lane = (got.lines[0].fit_m, got.lines[1].fit_m)
+    return check_line_inside(px, *lane, m.scale, m.config.tracking, m.config.search.inner_retry_span) is not None
 
 
 def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer, px: Pixels) -> Measured:
