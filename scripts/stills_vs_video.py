@@ -36,7 +36,7 @@ from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
 from lanefinder.evaluate import bench_frame
 from lanefinder.pipeline import LaneFinder
-from lanefinder.telemetry import lane_row, read_telemetry
+from lanefinder.telemetry import BlownOut, h_samples, lane_row, read_telemetry
 from lanefinder.video import VideoInfo, frames
 from lanefinder.videojob import process_video
 
@@ -55,7 +55,8 @@ def own_setup(src: Path, cfg: Config) -> Config:
 def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
     """Find one still blind: whether it has a lane, whether it agrees, its accuracy, set-up and checks."""
     result = finder.process_still(image)
-    row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])))
+    row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])),
+                   blown=BlownOut.of(image, h_samples(image.shape[0])))  # as `lanefinder image` writes it
     lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
     acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])
     return {"lane": result.lane_found, "agrees": result.lane_found and fn == 0, "accuracy": acc,

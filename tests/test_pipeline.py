@@ -334,3 +334,41 @@ def test_inner_preference_takes_the_line_before_a_stronger_rail_beyond_it():
     inner = search_params(SearchConfig(inner_preference=0.5), 3.7 / 150, 0.0985)
     assert find_bases(hist, 200.0, plain) == (126.0, 307.0)
     assert find_bases(hist, 200.0, inner) == (126.0, 277.0)
+
+
+def test_a_line_is_not_reported_where_the_frame_is_blown_out(test_images, tmp_path):
+    from fractions import Fraction
+
+    from lanefinder.telemetry import BlownOut, h_samples, lane_row, read_telemetry
+    from lanefinder.video import VideoInfo, VideoSink
+    from lanefinder.videojob import process_video
+
+    img = test_images["straight_lines1"].copy()
+    img[440:491] = 255  # glare washes the road out on rows 440-490: no paint can be seen there
+    finder = LaneFinder(Config())
+    r = finder.process_still(img)
+    be = finder.birdseye((1280, 720))
+    rows = h_samples(720)
+    plain, masked = lane_row(r, be), lane_row(r, be, blown=BlownOut.of(img, rows))
+    dropped = 0
+    for k in ("left_x", "right_x"):
+        for y, a, b in zip(rows, plain[k], masked[k], strict=True):
+            if 440 <= y <= 490 and a >= 0:
+                assert b == -2.0, (k, y)
+                dropped += 1
+            else:
+                assert a == b, (k, y)
+    assert dropped >= 6
+    # The same in a video's telemetry: the band is looked at before the lane is drawn on the frame
+    # (wider here: the codec softens its edges).
+    img[420:521] = 255
+    clip = tmp_path / "glare.mp4"
+    info = VideoInfo(width=1280, height=720, fps=Fraction(25), total_frames=3, duration_s=0.12, codec="h264")
+    with VideoSink(clip, info) as sink:
+        for _ in range(3):
+            sink.write(img)
+    process_video(clip, tmp_path / "out.mp4", Config(), telemetry=tmp_path / "t.jsonl", progress=False)
+    for row in read_telemetry(tmp_path / "t.jsonl"):
+        for k in ("left_x", "right_x"):
+            xs = dict(zip(row["h_samples"], row[k], strict=True))
+            assert all(xs[y] == -2.0 for y in range(450, 491, 10)) and xs[700] >= 0, (k, xs)

@@ -21,7 +21,7 @@ from .io import OutputSet, atomic_write_text, check_outputs, read_image, write_i
 from .pipeline import LaneFinder
 from .render import annotate
 from .stages import write_stages
-from .telemetry import lane_row
+from .telemetry import BlownOut, h_samples, lane_row
 
 __all__ = ["RESULTS_NAME", "ImageRun", "output_names", "process_images"]
 
@@ -152,7 +152,8 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
             write_image(dest, annotate(frame, result, be, cfg.render), outputs=outs)
             if stages_dir:
                 write_stages(Path(stages_dir), dest.stem, frame, finder, outputs=outs)
-            row = {"image": str(p), "output": str(dest), **lane_row(result, be, cfg.far.confidence_decay_m),
+            blown = BlownOut.of(frame, h_samples(frame.shape[0]))
+            row = {"image": str(p), "output": str(dest), **lane_row(result, be, cfg.far.confidence_decay_m, blown),
                    "ms": round(ms, 2)}
             rows.append(row)
             if on_row:

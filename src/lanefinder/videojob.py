@@ -31,7 +31,7 @@ from .pipeline import LaneFinder
 from .render import annotate, contact_sheet, draw_debug
 from .selfcal import SetupState
 from .selfcal import wanted as selfcal_wanted
-from .telemetry import TELEMETRY_SUFFIXES, TelemetryWriter, make_row
+from .telemetry import TELEMETRY_SUFFIXES, BlownOut, TelemetryWriter, h_samples, make_row
 from .tracking import at_fps
 from .video import DecodeStats, Frame, VideoInfo, VideoSink, frames
 
@@ -353,9 +353,9 @@ class _Run:
         return result, (out if draw else None)
 
     def emit(self, f: Frame, result: LaneResult, out: np.ndarray | None, writer: TelemetryWriter | None,
-             threads: _Threads) -> None:
+             threads: _Threads, blown: BlownOut | None = None) -> None:
         """Write one frame's telemetry row and queue its image, as one step that no signal splits."""
-        row = make_row(f.index, f.time_s, result, self.be, self.finder.config.far.confidence_decay_m) \
+        row = make_row(f.index, f.time_s, result, self.be, self.finder.config.far.confidence_decay_m, blown) \
             if writer else None
         with signals_held():
             if row is not None and writer is not None:
@@ -389,8 +389,10 @@ class _Run:
             for f in threads.frames():
                 if interrupt.is_set():
                     break
+                # Where the frame is blown out (glare), looked at before anything is drawn on it.
+                blown = BlownOut.of(f.image, h_samples(f.image.shape[0])) if writer else None
                 result, out = self.frame(f, draw=encoding)
-                self.emit(f, result, out, writer, threads)
+                self.emit(f, result, out, writer, threads, blown)
                 bar.update(1)
         except KeyboardInterrupt:
             interrupt.set()
