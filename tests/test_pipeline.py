@@ -372,3 +372,21 @@ def test_a_line_is_not_reported_where_the_frame_is_blown_out(test_images, tmp_pa
         for k in ("left_x", "right_x"):
             xs = dict(zip(row["h_samples"], row[k], strict=True))
             assert all(xs[y] == -2.0 for y in range(450, 491, 10)) and xs[700] >= 0, (k, xs)
+
+
+def test_the_blown_out_mask_is_ignored_where_it_cannot_apply(test_images):
+    from lanefinder.telemetry import BlownOut, h_samples, lane_row
+
+    img = test_images["straight_lines1"]
+    # A set-up whose trapezoid's sides are parallel has no horizon: rows are written unmasked.
+    cfg = Config.model_validate({"birdseye": {"src": [[400, 460], [880, 460], [880, 675], [400, 675]]}})
+    finder = LaneFinder(cfg)
+    r = finder.process(img)
+    be = finder.birdseye((1280, 720))
+    assert lane_row(r, be, blown=BlownOut.of(img, h_samples(720))) == lane_row(r, be)
+    # A mask of another frame size is ignored; one x per row is needed.
+    small = BlownOut.of(np.full((720, 640, 3), 255, np.uint8), h_samples(720))
+    assert lane_row(r, be, blown=small) == lane_row(r, be)
+    with pytest.raises(ValueError, match="one x"):
+        small.across([1.0], [3])
+    assert not small.across([float("nan"), float("inf"), 900.0] + [-2.0] * 29, [3] * 32).any()

@@ -10,7 +10,8 @@ camera_height_m (the set-up in use: its horizon row and the camera height it imp
 The per-line fields (``left_*``/``right_*``) come from each side's
 :class:`~lanefinder.lane.Line` through one table, :data:`LINE_FIELDS`.  ``left_x``/``right_x``
 give each line's x in the original (distorted) frame at the rows ``h_samples`` (400, 410, ...
-710 for 720-row video: the TuSimple benchmark rows), or -2 where the line is absent.  Missing
+710 for 720-row video: the TuSimple benchmark rows), or -2 where the line is absent or the
+frame is blown out across it (glare: see :class:`BlownOut`; its ``*_x_conf`` is then 0).  Missing
 numbers are empty (CSV) or null (JSONL).  The image job's ``results.jsonl`` rows hold the same
 fields after its own ``image``, ``output`` and ``ms``.
 """
@@ -40,6 +41,8 @@ from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
 
 __all__ = [
+    "BLOWN_OUT_HALF_M",
+    "BLOWN_OUT_LEVEL",
     "BOOL_FIELDS",
     "FIELDS",
     "LINE_FIELDS",
@@ -94,7 +97,8 @@ class BlownOut:
     """Where a frame is blown out (every channel at least ``BLOWN_OUT_LEVEL``), on some of its rows.
 
     Made before anything is drawn on the frame; :func:`lane_row` leaves a line's x out at the
-    rows where it is blown out across the line (no paint can be seen there).
+    rows where it is blown out across the line (no paint can be seen there): every pixel within
+    ``BLOWN_OUT_HALF_M`` of it on that row, and at least 3 px either side.
 
     Attributes
     ----------
@@ -135,6 +139,9 @@ class BlownOut:
         >>> BlownOut.of(np.full((720, 1280, 3), 255, np.uint8), [400, 710]).lit[:, -1].tolist()
         [0, 0]
         """
+        if not (isinstance(frame, np.ndarray) and frame.ndim == 3 and frame.shape[2] == 3
+                and frame.dtype == np.uint8 and 0 not in frame.shape):
+            raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
         h, w = frame.shape[:2]
         inside = [min(max(int(r), 0), h - 1) for r in rows]
         level = (BLOWN_OUT_LEVEL,) * 3
@@ -159,7 +166,13 @@ class BlownOut:
         Returns
         -------
         (len(rows),) bool ndarray
-            True where every pixel looked at is blown out (never where the line is absent).
+            True where every pixel looked at is blown out (never where the line is absent, not
+            finite, or outside the frame).
+
+        Raises
+        ------
+        ValueError
+            When ``xs`` or ``half_px`` does not give one value per row.
 
         Examples
         --------
@@ -170,10 +183,13 @@ class BlownOut:
         w = self.lit.shape[1] - 1
         x = np.asarray(xs, np.float64)
         half = np.asarray(half_px, np.int64)
-        c = np.clip(np.rint(x).astype(np.int64), 0, w - 1)
+        if x.shape != (len(self.rows),) or half.shape != x.shape:
+            raise ValueError(f"one x and one half-width per row are needed ({len(self.rows)} rows)")
+        seen = np.isfinite(x) & (x >= 0) & (x < w)
+        c = np.clip(np.rint(np.where(seen, x, 0.0)).astype(np.int64), 0, w - 1)
         lo, hi = np.clip(c - half, 0, w), np.clip(c + half + 1, 0, w)
         k = np.arange(len(self.rows))
-        return (x >= 0) & (self.lit[k, hi] - self.lit[k, lo] == 0)
+        return seen & (self.lit[k, hi] - self.lit[k, lo] == 0)
 
 
 def h_samples(frame_height: int) -> list[int]:
@@ -334,8 +350,10 @@ def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M,
         (``*_x_conf``) falls beyond the view.
     blown : BlownOut, optional
         Where the frame is blown out on the rows (:meth:`BlownOut.of` on the frame as read): a
-        line's x is left out (-2) at a row where every pixel within ``BLOWN_OUT_HALF_M`` of it
-        is blown out, as in glare, where no paint can be seen.
+        line's x is left out (-2, its ``x_conf`` 0) at a row where every pixel within
+        ``BLOWN_OUT_HALF_M`` of it (at least 3 px) is blown out, as in glare, where no paint can
+        be seen.  Ignored when it was made for other rows or another frame width, or when the
+        set-up gives no horizon.
 
     Returns
     -------
@@ -356,7 +374,8 @@ def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M,
     rows = h_samples(be.frame_size[1])
     xs = _x_at_rows([(line.fit_px, line.far_fit_px, line.far_end_px) for line in r.lines], be, rows)
     horizon, height, _ = _setup_numbers(be)
-    if blown is not None and blown.rows == tuple(rows) and height > 0:
+    fits = blown is not None and blown.rows == tuple(rows) and blown.lit.shape[1] - 1 == be.frame_size[0]
+    if blown is not None and fits and math.isfinite(horizon) and height > 0:
         # Half a window of BLOWN_OUT_HALF_M across the road at each row (pinhole: px per m = (row - horizon) / height).
         half = [max(3, round(BLOWN_OUT_HALF_M * (y - horizon) / height)) for y in rows]
         xs = [[-2.0 if out else v for v, out in zip(x, blown.across(x, half).tolist(), strict=True)] for x in xs]
