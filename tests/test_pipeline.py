@@ -390,3 +390,21 @@ def test_the_blown_out_mask_is_ignored_where_it_cannot_apply(test_images):
     with pytest.raises(ValueError, match="one x"):
         small.across([1.0], [3])
     assert not small.across([float("nan"), float("inf"), 900.0] + [-2.0] * 29, [3] * 32).any()
+
+
+def test_a_line_seen_up_to_where_glare_blows_the_view_out_spans_the_view_left():
+    from lanefinder.geometry import Scale
+    from lanefinder.measure import Measurer, measure
+    from lanefinder.tracking import Track
+
+    m = Measurer.build(Config(), Scale(3.7 / 150, 0.0985, 300, 200.0))
+    b = np.zeros((300, 400), np.uint8)
+    b[210:, 122:128] = 1
+    b[210:, 272:278] = 1  # both lines seen on the nearest 90 rows only
+    view = np.full((300, 400, 3), 90, np.uint8)
+    plain = measure(b, view, Track(), m).lines
+    view[:200] = 255  # glare blows out the view's far two thirds
+    glare = measure(b, view, Track(), m).lines
+    for p_line, g_line in zip(plain, glare, strict=True):
+        # Measured: 0.58 -> 0.82 (the span is a third of the view, all of the view glare leaves).
+        assert g_line.confidence > p_line.confidence + 0.2, (p_line.confidence, g_line.confidence)

@@ -39,6 +39,7 @@ from .farfield import far_rows, row_confidence
 from .geometry import poly_x
 from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
+from .threshold import BLOWN_OUT_LEVEL
 
 __all__ = [
     "BLOWN_OUT_HALF_M",
@@ -88,7 +89,6 @@ _setup_numbers = functools.lru_cache(maxsize=8)(setup_of)
 #: 0.3 m, 0.763 at 0.6 m, 0.753 at 1 m; every other scenario unchanged.  On the harder challenge
 #: video it leaves out 1583 of 59677 points, on 237 frames of washed-out road; none on the
 #: other two videos.)
-BLOWN_OUT_LEVEL = 245
 BLOWN_OUT_HALF_M = 0.3
 
 

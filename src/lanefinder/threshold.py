@@ -14,7 +14,12 @@ import numpy as np
 
 from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
 
-__all__ = ["STRATEGIES", "color", "ridge", "rowwise", "sobel_hls", "threshold", "ycrcb"]
+__all__ = ["BLOWN_OUT_LEVEL", "STRATEGIES", "blown_out_rows", "color", "ridge", "rowwise", "sobel_hls", "threshold",
+           "ycrcb"]
+
+#: A pixel at least this bright in every channel is blown out (glare): no paint can be told from
+#: the road there.
+BLOWN_OUT_LEVEL = 245
 
 # The ridge window is at least this wide (pixels): narrower cannot hold a road level either side.
 _MIN_RIDGE_WINDOW_PX = 3
@@ -200,6 +205,34 @@ STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = 
     "color": (color, "color"),
     "ycrcb": (ycrcb, "ycrcb"),
 }
+
+
+def blown_out_rows(image: np.ndarray, fraction: float = 0.5) -> np.ndarray:
+    """Tell which rows of an image are blown out: at least ``fraction`` of their pixels (glare).
+
+    A pixel is blown out when it is at least ``BLOWN_OUT_LEVEL`` in every channel.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image (the bird's-eye view, in the pipeline).
+    fraction : float, optional
+        The share of a row's pixels that must be blown out.
+
+    Returns
+    -------
+    (H,) bool ndarray
+        True on the blown-out rows.
+
+    Examples
+    --------
+    >>> img = np.full((4, 10, 3), 90, np.uint8); img[1, :6] = 255; img[2, :4] = 255
+    >>> blown_out_rows(img).tolist()
+    [False, True, False, False]
+    """
+    lit = cv2.inRange(image, (BLOWN_OUT_LEVEL,) * 3, (255, 255, 255))
+    share = cv2.reduce(lit, 1, cv2.REDUCE_AVG, dtype=cv2.CV_32F)[:, 0] / 255.0
+    return share >= fraction
 
 
 def rowwise(cfg: ThresholdConfig) -> bool:
