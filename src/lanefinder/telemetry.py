@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from .birdseye import BirdsEye, setup_of
@@ -39,7 +38,7 @@ from .farfield import far_rows, row_confidence
 from .geometry import poly_x
 from .io import OutputSet
 from .lane import SIDES, LaneResult, Line
-from .threshold import BLOWN_OUT_LEVEL
+from .threshold import BLOWN_OUT_LEVEL, blown_out
 
 __all__ = [
     "BLOWN_OUT_HALF_M",
@@ -144,8 +143,7 @@ class BlownOut:
             raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
         h, w = frame.shape[:2]
         inside = [min(max(int(r), 0), h - 1) for r in rows]
-        level = (BLOWN_OUT_LEVEL,) * 3
-        blown = cv2.inRange(np.ascontiguousarray(frame[inside]), level, (255, 255, 255))  # 255 where blown out
+        blown = blown_out(np.ascontiguousarray(frame[inside]))  # 255 where blown out
         lit = np.zeros((len(rows), w + 1), np.int32)
         np.cumsum(blown == 0, axis=1, out=lit[:, 1:])
         for i, r in enumerate(rows):

@@ -14,8 +14,8 @@ import numpy as np
 
 from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
 
-__all__ = ["BLOWN_OUT_LEVEL", "STRATEGIES", "blown_out_rows", "color", "ridge", "rowwise", "sobel_hls", "threshold",
-           "ycrcb"]
+__all__ = ["BLOWN_OUT_LEVEL", "STRATEGIES", "blown_out", "blown_out_rows", "color", "ridge", "rowwise", "sobel_hls",
+           "threshold", "ycrcb"]
 
 #: A pixel at least this bright in every channel is blown out (glare): no paint can be told from
 #: the road there.
@@ -207,10 +207,32 @@ STRATEGIES: dict[str, tuple[Callable[[np.ndarray, object], np.ndarray], str]] = 
 }
 
 
+def blown_out(image: np.ndarray) -> np.ndarray:
+    """Mark an image's blown-out pixels: at least ``BLOWN_OUT_LEVEL`` in every channel (glare).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        BGR image.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        255 on blown-out pixels, 0 elsewhere.
+
+    Examples
+    --------
+    >>> img = np.full((1, 3, 3), 250, np.uint8); img[0, 1, 0] = 200
+    >>> blown_out(img).tolist()
+    [[255, 0, 255]]
+    """
+    return cv2.inRange(image, (BLOWN_OUT_LEVEL,) * 3, (255, 255, 255))
+
+
 def blown_out_rows(image: np.ndarray, fraction: float = 0.5) -> np.ndarray:
     """Tell which rows of an image are blown out: at least ``fraction`` of their pixels (glare).
 
-    A pixel is blown out when it is at least ``BLOWN_OUT_LEVEL`` in every channel.
+    A pixel is blown out when it is at least ``BLOWN_OUT_LEVEL`` in every channel (:func:`blown_out`).
 
     Parameters
     ----------
@@ -230,8 +252,7 @@ def blown_out_rows(image: np.ndarray, fraction: float = 0.5) -> np.ndarray:
     >>> blown_out_rows(img).tolist()
     [False, True, False, False]
     """
-    lit = cv2.inRange(image, (BLOWN_OUT_LEVEL,) * 3, (255, 255, 255))
-    share = cv2.reduce(lit, 1, cv2.REDUCE_AVG, dtype=cv2.CV_32F)[:, 0] / 255.0
+    share = cv2.reduce(blown_out(image), 1, cv2.REDUCE_AVG, dtype=cv2.CV_32F)[:, 0] / 255.0
     return share >= fraction
 
 

@@ -421,25 +421,23 @@ def _seen_ahead_m(measured: Pair, ok: list[bool], rules: Rules) -> tuple[float, 
     return out[0], out[1]
 
 
-def _weak_start(track: Track, measured: Pair, ok: list[bool], conf: list[float],
-                rules: Rules) -> tuple[Candidate, bool] | None:
+def _weak_start(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float],
+                rules: Rules, ahead_m: tuple[float, float]) -> tuple[Candidate, bool] | None:
     """Rule 3's exception: without a lane, a lone weak line seen in the same place long enough starts it.
 
     Gives the candidate counted and whether it is confirmed (None: the line is too weak, the
     rule is off, or a surer candidate waits elsewhere, which a weak line does not displace).  It
     is confirmed once seen on ``weak_start_frames`` frames, and never on fewer than a
     confident lone line needs (``start_frames``), the same as far as it is seen
-    (:func:`_confirm`: a short marking's fit wanders beyond).
+    (:func:`_confirm`: a short marking's fit wanders beyond).  ``fits`` is the lane the line
+    implies, ``ahead_m`` how far it reaches (:func:`_seen_ahead_m`).
     """
     c = rules.cfg
     i = 0 if ok[0] else 1
     if track.has_lane or not c.weak_start_frames or conf[i] < c.weak_start_confidence:
         return None
-    width = track.width_m if track.width_m is not None else rules.default_width_m
-    fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
-                        measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
     need = max(c.weak_start_frames, c.start_frames)
-    cand, confirmed = _confirm(track, fits, False, rules, _seen_ahead_m(measured, ok, rules), need=need, weak=True)
+    cand, confirmed = _confirm(track, fits, False, rules, ahead_m, need=need, weak=True)
     if cand.sightings == 1 and track.candidate is not None and not track.candidate.weak:
         return None  # not where a surer candidate waits: a plain miss, as before
     return cand, confirmed
@@ -560,25 +558,28 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     if ok[0] and ok[1]:
         conf = _settle_pair(track, measured, ok, conf, rules, reasons)
     conf_t = (conf[0], conf[1])
-    lone, weak_started = None, False
+    if not (ok[0] or ok[1]):
+        return _miss(track, reasons, conf_t, measured, blind, rules)
+    # The lane what is left implies, and how far its lines reach (for a candidate's sightings).
+    width = track.width_m if track.width_m is not None else rules.default_width_m
+    fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
+                        measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
+    ahead = _seen_ahead_m(measured, ok, rules)
+    weak_started = False
     if ok[0] != ok[1]:
         lone = check_one_line(conf[0] if ok[0] else conf[1], track.needs_blind_search(c), track.since_both, c)
         reasons.extend([lone] if lone else [])
-        if lone == "one-line-start" and (weak := _weak_start(track, measured, ok, conf, rules)) is not None:
+        if lone == "one-line-start" and (weak := _weak_start(track, fits, ok, conf, rules, ahead)) is not None:
             if not weak[1]:
                 return _miss(replace(track, candidate=weak[0]), reasons, conf_t, measured, blind, rules,
                              keep_candidate=True)
             lone, weak_started = None, True  # seen long enough: it starts the lane, confirmed
             reasons.remove("one-line-start")
-    if lone or not (ok[0] or ok[1]):
-        return _miss(track, reasons, conf_t, measured, blind, rules)
+        if lone:
+            return _miss(track, reasons, conf_t, measured, blind, rules)
 
     both = ok[0] and ok[1]
-    width = track.width_m if track.width_m is not None else rules.default_width_m
-    fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
-                        measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
-    if not weak_started and (cand := _unconfirmed(track, fits, ok, conf, rules,
-                                                  _seen_ahead_m(measured, ok, rules))) is not None:
+    if not weak_started and (cand := _unconfirmed(track, fits, ok, conf, rules, ahead)) is not None:
         # A weak start must be seen again in the same place before it is shown.
         reasons.append("confirming")
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
