@@ -276,8 +276,53 @@ def test_specks_in_a_line_window_do_not_steer_a_short_dash():
     p = fit_params(FitConfig(), 3.7 / 150, 0.0985)
     fit = fit_line(xs, ys, 300, p)
     assert abs(float(np.polyval(fit.coeffs_px, 299.0)) - 125.0) < 1.0  # at the car
-    loose = fit_line(xs, ys, 300, fit_params(FitConfig(band_min_marking_m=0.0), 3.7 / 150, 0.0985))
+    every = FitConfig(band_min_marking_m=0.0, piece_min_marking_m=0.0)
+    loose = fit_line(xs, ys, 300, fit_params(every, 3.7 / 150, 0.0985))
     assert abs(float(np.polyval(loose.coeffs_px, 299.0)) - 125.0) > 10.0  # every pixel counting: steered
+
+
+def test_a_lone_speck_far_from_a_dash_neither_stretches_nor_bends_the_line():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_line, fit_params
+
+    # A synthetic curve entry (seed 2, frame 23): one dash 3.5 m long mid-view (rows 100-135, 6 px
+    # wide) and a speck 0.25 m of paint long near the car (rows 270-281): the speck made the
+    # line look 0.6 of the view long, 0.75 sure, and bent it 1 m off at the car.
+    ys, xs = np.repeat(np.arange(100.0, 136.0), 6), 310.0 + np.tile(np.arange(6) - 2.5, 36)
+    sy, sx = np.meshgrid(np.arange(270.0, 282.0), [300.0, 301.0])
+    xs, ys = np.r_[xs, sx.ravel()], np.r_[ys, sy.ravel()]
+    fit = fit_line(xs, ys, 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    assert fit.span < 0.15 and fit.coeffs_px[0] == 0  # the dash alone: short, so straight
+    assert abs(float(np.polyval(fit.coeffs_px, 299.0)) - 310.0) < 1.0
+    loose = fit_line(xs, ys, 300, fit_params(FitConfig(piece_min_marking_m=0.0), 3.7 / 150, 0.0985))
+    assert loose.span > 0.55 and loose.confidence > fit.confidence + 0.2  # the speck counting
+
+
+def test_a_worn_line_broken_by_a_thin_band_is_one_piece():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_line, fit_params
+
+    # Worn paint (harder challenge video, frame 584): 0.8 m of line 3 px wide, a band with only
+    # 3 px of paint (too few to count), then 3 m more, 4 px wide. The short stretch holds less
+    # paint than a piece needs alone, but with the thin band it is part of one piece, and stays.
+    top_y, top_x = np.repeat(np.arange(130.0, 138.0), 3), 125.0 + np.tile(np.arange(3.0), 8)
+    thin_y, thin_x = np.array([141.0, 144.0, 147.0]), np.full(3, 126.0)
+    low_y, low_x = np.repeat(np.arange(150.0, 180.0), 4), 125.0 + np.tile(np.arange(4.0), 30)
+    fit = fit_line(np.r_[top_x, thin_x, low_x], np.r_[top_y, thin_y, low_y], 300,
+                   fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    assert fit.n_pixels == top_y.size + low_y.size  # the thin band's 3 px alone are left out
+
+
+def test_a_short_piece_the_far_edge_of_the_view_cuts_still_counts():
+    from lanefinder.config import FitConfig
+    from lanefinder.geometry import fit_line, fit_params
+
+    # A dash cut by the view's top (rows 0-5, 3 px wide: 18 px, less than a piece needs) goes on
+    # beyond the view; it counts, and the line spans from it to a dash near the car.
+    top_y, top_x = np.repeat(np.arange(0.0, 6.0), 3), 200.0 + np.tile(np.arange(3.0), 6)
+    low_y, low_x = np.repeat(np.arange(200.0, 240.0), 5), 200.0 + np.tile(np.arange(5.0), 40)
+    fit = fit_line(np.r_[top_x, low_x], np.r_[top_y, low_y], 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
+    assert fit.n_pixels == top_y.size + low_y.size and fit.span > 0.75
 
 
 def test_the_lane_fit_keeps_the_specks_out_too():

@@ -313,11 +313,11 @@ def test_a_video_starting_on_a_curve_takes_its_first_frames_horizon():
             setups.add(result.setup)
         return setups, float(np.mean(accuracy))
 
-    # Measured: with the default set-up 0.541 over the first 8 frames, with the first frame's
-    # horizon 0.984.
+    # Measured: with the default set-up 0.654 over the first 8 frames (0.541 before a line's lone
+    # specks were left out of its fit, fit.piece_min_marking_m), with the first frame's horizon 0.979.
     setups_off, acc_off = run(Config.model_validate({"selfcal": {"still_horizon": False}}))
     setups_on, acc_on = run(Config())
-    assert setups_off == {"default"} and acc_off < 0.6
+    assert setups_off == {"default"} and acc_off < 0.7
     assert setups_on == {"first-frame"} and acc_on > 0.95
 
 

@@ -510,6 +510,14 @@ class FitConfig(_Section):
         ... and a band holding less paint than this length of full-width marking is left out
         of the fit: specks and crack slivers in the search window, not a marking (a real dash
         fills its bands), metres (0: every pixel counts).
+    piece_min_marking_m : float
+        A piece of a line (bands next to each other that hold any of its pixels: a dash, a
+        stretch of solid or worn line) holding less paint than this length of full-width
+        marking, in bands kept as above, is left out of the fit (unless the view's far edge
+        cuts it): a speck ten metres from the rest stretches the line's span and bends its fit,
+        metres (0: every piece counts;
+        0.5, as ``min_marking_m``: the paint a line needs). Frames of a video only: a single
+        still is fitted with every piece.
     max_radius_m : float
         Cap on the reported radius, metres (a straight road reports it).
     straight_radius_m : float
@@ -534,6 +542,7 @@ class FitConfig(_Section):
     max_points: Annotated[int, Field(ge=10, le=100000)] = 1200
     band_m: PositiveFloat = 1.0
     band_min_marking_m: Annotated[float, Field(ge=0, le=10)] = 0.13
+    piece_min_marking_m: Annotated[float, Field(ge=0, le=10)] = 0.5
     max_radius_m: PositiveFloat = 10000.0
     straight_radius_m: PositiveFloat = 3000.0
 

@@ -150,6 +150,9 @@ class FitParams:
         Rows of a band (see ``FitConfig.band_m``).
     band_min_pixels : int
         Pixels a band needs to take part in the fit (0: all do).
+    piece_min_pixels : int
+        Pixels a piece (bands next to each other holding any of the line's pixels) needs in its kept
+        bands to take part, unless it reaches the view's far edge (0: all do).
 
     Examples
     --------
@@ -169,6 +172,7 @@ class FitParams:
     max_points: int
     band_rows: int = 10
     band_min_pixels: int = 0
+    piece_min_pixels: int = 0
 
 
 def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
@@ -207,6 +211,7 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
         max_points=cfg.max_points,
         band_rows=max(1, round(cfg.band_m / ym_per_px)),
         band_min_pixels=round(cfg.band_min_marking_m * per_m),
+        piece_min_pixels=round(cfg.piece_min_marking_m * per_m),
     )
 
 
@@ -260,11 +265,28 @@ def _in_y(coef: np.ndarray, y0: float, ys: float) -> np.ndarray:
 
 
 def _marking(x: np.ndarray, y: np.ndarray, cfg: FitParams) -> tuple[np.ndarray, np.ndarray]:
-    """Keep a line's pixels in the bands along the road that hold enough paint (specks are not a marking)."""
-    if cfg.band_min_pixels <= 0 or not x.size:
+    """Keep a line's pixels in bands and pieces that hold enough paint (specks are not a marking).
+
+    A band (``band_rows`` rows) needs ``band_min_pixels``.  A piece is a run of bands next to
+    each other that hold any of the line's pixels (a dash, a stretch of solid or worn line);
+    it needs ``piece_min_pixels`` in its kept bands, unless the view's far edge cuts it (its
+    marking may go on beyond the view).  A lone speck ten metres from the rest would otherwise
+    stretch the line's span (its confidence) and bend its fit.
+    """
+    if (cfg.band_min_pixels <= 0 and cfg.piece_min_pixels <= 0) or not x.size:
         return x, y
     band = np.asarray(y).astype(np.intp) // cfg.band_rows  # rows: whole pixels, >= 0
-    keep = np.bincount(band)[band] >= cfg.band_min_pixels
+    counts = np.bincount(band)
+    kept = counts >= max(1, cfg.band_min_pixels)
+    if cfg.piece_min_pixels > 0:
+        seen = counts > 0
+        piece = np.cumsum(np.diff(seen.astype(np.int8), prepend=0) == 1) * seen  # 1, 2, ...; 0: no pixels
+        paint = np.bincount(piece, weights=counts * kept)
+        ok = paint >= cfg.piece_min_pixels
+        if piece[0]:  # a piece the view's far edge cuts: its marking goes on beyond the view
+            ok[piece[0]] = True
+        kept &= ok[piece]
+    keep = kept[band]
     return x[keep], y[keep]
 
 
@@ -272,8 +294,9 @@ def fit_line(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> Li
     """Fit a line's pixels robustly (Huber IRLS, second order).
 
     Pixels in bands along the road that hold too little paint (``band_min_pixels`` in
-    ``band_rows``) are left out first.  Pixels covering less than ``min_span_fraction`` of the
-    height get a straight fit.
+    ``band_rows``), and in pieces of the line that hold too little (``piece_min_pixels``), are
+    left out first.  Pixels covering less than ``min_span_fraction`` of the height get a
+    straight fit.
 
     Parameters
     ----------

@@ -52,7 +52,8 @@ def inspect_frame(frame: np.ndarray, finder: LaneFinder) -> tuple[dict[str, np.n
         The original frame, BGR.
     finder : LaneFinder
         Gives the configuration, the camera and the set-up in use (after
-        :meth:`~lanefinder.pipeline.LaneFinder.process_still`, the still's own).
+        :meth:`~lanefinder.pipeline.LaneFinder.process_still`, the still's own, and the frame is
+        measured as a still: :attr:`~lanefinder.pipeline.LaneFinder.last_still`).
 
     Returns
     -------
@@ -72,7 +73,7 @@ def inspect_frame(frame: np.ndarray, finder: LaneFinder) -> tuple[dict[str, np.n
     size = (frame.shape[1], frame.shape[0])
     debug = LaneFinder(finder.config, camera=finder.camera, keep_debug=True)
     debug.use_birdseye(finder.birdseye(size))  # the set-up in use: a still's own, after process_still
-    result = debug.process(frame)
+    result = debug.find_as_still(frame) if finder.last_still else debug.process(frame)
     be = debug.birdseye(size)
     undist = be.camera.undistort(frame)
     marked = undist.copy()

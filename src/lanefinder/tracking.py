@@ -471,7 +471,11 @@ def _taken_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str])
 
 def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float], rules: Rules,
                  reasons: list[str]) -> list[float]:
-    """Rule 2: a pair that fails the lane checks keeps one line; both confidences drop."""
+    """Rule 2: a pair that fails the lane checks keeps one line; both confidences drop.
+
+    Without a usable track the surer line is kept, and it keeps its confidence when the other
+    is too weak to start a lane alone (below ``min_start_confidence``).
+    """
     c = rules.cfg
     lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
     holding = not track.needs_blind_search(c)
@@ -485,6 +489,9 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
     else:
         drop = 0 if conf[0] < conf[1] else 1
     ok[drop] = False
+    if track.needs_blind_search(c) and conf[drop] < c.min_start_confidence:
+        # A line too weak to start a lane alone says little against a sure one: the sure one keeps its say.
+        return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)]
     return [v * c.rejected_pair_confidence for v in conf]
 
 
