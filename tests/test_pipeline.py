@@ -453,3 +453,35 @@ def test_a_line_seen_up_to_where_glare_blows_the_view_out_spans_the_view_left():
     for p_line, g_line in zip(plain, glare, strict=True):
         # Measured: 0.58 -> 0.82 (the span is a third of the view, all of the view glare leaves).
         assert g_line.confidence > p_line.confidence + 0.2, (p_line.confidence, g_line.confidence)
+
+
+def test_a_line_reaches_as_far_as_its_fitted_pixels_not_a_speck_beyond():
+    from lanefinder.config import Config
+    from lanefinder.geometry import Scale
+    from lanefinder.measure import Measurer, measure
+    from lanefinder.tracking import Track
+
+    # A solid left line; a right line 10 m long near the car, and a 30-pixel speck 20 m beyond
+    # it (less paint than a piece needs): the speck is not fitted, and the right line reaches
+    # about 10 m, not 24 m.
+    m = Measurer.build(Config(), Scale(3.7 / 150, 0.0985, 300, 200.0))
+    b = np.zeros((300, 400), np.uint8)
+    b[:, 122:128] = 1
+    b[200:300, 272:278] = 1
+    b[60:70, 274:277] = 1
+    right = measure(b, None, Track(), m).lines[1]
+    assert right.n_pixels == 600 and abs(right.range_m - 9.85) < 0.1
+
+
+def test_a_finder_knows_when_it_last_measured_a_still(test_images):
+    from lanefinder.errors import LaneFinderError
+
+    finder, image = LaneFinder(), test_images["test3"]
+    finder.process_still(image)
+    assert finder.last_still
+    finder.reset()
+    finder.process(image)
+    assert not finder.last_still
+    assert finder.find_as_still(image).lane_found and finder.last_still
+    with pytest.raises(LaneFinderError, match="self-calibrate"):
+        LaneFinder(self_calibrate=True).find_as_still(image)

@@ -298,3 +298,17 @@ def test_counts_and_gains_follow_the_frame_rate():
     assert at_fps(cfg, 10.0).start_frames == 2
     assert at_fps(cfg, 1000.0) is cfg and at_fps(cfg, 1.0) is cfg  # misreported rates: not scaled
     assert isinstance(at_fps(cfg, Fraction(30000, 1001)).reference_fps, float)
+
+
+def test_at_a_blind_start_a_refused_pairs_sure_line_keeps_its_say_against_a_weak_one(tracker):
+    # A sure left line and a weak right one 6.3 m away (the width check refuses the pair): the
+    # weak line could not start a lane alone, so the sure one starts it at its own confidence,
+    # the right line inferred (synthetic sharp curve, fixed look: its first two frames).
+    v = tracker.update(meas(LEFT, 0.9), meas(np.array([0.0, 0.0, 4.5]), 0.35), blind=True)
+    assert "width" in v.reasons and v.left.found and v.right.inferred
+    assert v.left.confidence == pytest.approx(0.9)
+    # A right line sure enough to start a lane alone (0.5) casts doubt on the left: both halve,
+    # and the left alone (0.4) is too weak to start one.
+    tracker.reset()
+    v = tracker.update(meas(LEFT, 0.8), meas(np.array([0.0, 0.0, 4.5]), 0.5), blind=True)
+    assert v.left.confidence == pytest.approx(0.4) and not v.left.found and "one-line-start" in v.reasons

@@ -609,7 +609,9 @@ class TrackingConfig(_Section):
     width_smoothing : float
         Gain of the tracked lane width per frame.
     rejected_pair_confidence : float
-        Factor on both confidences of a pair that fails the lane checks.
+        Factor on both confidences of a pair that fails the lane checks (without a usable
+        track, only on the weaker when it is below ``min_start_confidence``: the surer line,
+        the one kept, keeps its own).
     inferred_weight : float
         An inferred line is smoothed with this times the confidence of the line it comes from.
     min_confidence : float
@@ -668,7 +670,8 @@ class TrackingConfig(_Section):
     smoothing_min_gain: Fraction = 0.05
     width_smoothing: Fraction = 0.1
     # A pair that fails the lane checks keeps one line, and both confidences are scaled by
-    # ``rejected_pair_confidence``; an inferred line is smoothed with ``inferred_weight`` times
+    # ``rejected_pair_confidence`` (without a track, the kept line's not when the other is too
+    # weak to start a lane); an inferred line is smoothed with ``inferred_weight`` times
     # the confidence of the line it is drawn from.
     rejected_pair_confidence: Fraction = 0.5
     inferred_weight: Fraction = 0.5

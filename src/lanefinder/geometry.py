@@ -56,6 +56,8 @@ class LineFit:
         Fraction of the view's height the pixels cover.
     confidence : float
         0..1: support, span and residual together.
+    top_px : float
+        The farthest row of the pixels fitted (the smallest y), bird's-eye pixels (NaN: not given).
 
     Examples
     --------
@@ -68,6 +70,7 @@ class LineFit:
     residual_px: float
     span: float
     confidence: float
+    top_px: float = math.nan
 
 
 def poly_x(coeffs: np.ndarray, y: np.ndarray | float) -> np.ndarray | float:
@@ -336,6 +339,7 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
+    top_px = float(np.min(y))
     if n > cfg.max_points:  # every step-th row keeps the fit and bounds the cost
         step = n // cfg.max_points + 1  # (whole rows: every step-th pixel would take some columns of each row)
         keep = np.asarray(y).astype(np.intp) % step == 0
@@ -361,7 +365,7 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     support = min(1.0, n / cfg.support_pixels)
     quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
     confidence = min(1.0, max(0.0, math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality))
-    return LineFit(coeffs, n, residual, span, confidence)
+    return LineFit(coeffs, n, residual, span, confidence, top_px)
 
 
 def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.ndarray], height_px: int,
@@ -412,7 +416,8 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         lam = cfg.parallel * pull
         ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
         c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), y.astype(np.float64))))  # on the pixels the fit took
-        out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence))
+        out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence,
+                           fit.top_px))
     return out[0], out[1]
 
 

@@ -25,7 +25,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -225,11 +224,14 @@ def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits
                    bases_px=found.bases_px), new
 
 
-def _line(fit: LineFit | None, ys: np.ndarray, scale: Scale) -> Line | None:
-    """Make a measured line's record; its range is how far ahead its farthest pixel lies."""
+def _line(fit: LineFit | None, scale: Scale) -> Line | None:
+    """Make a measured line's record; its range is how far ahead its farthest fitted pixel lies.
+
+    (Pixels the fit left out, specks beyond a dash, do not stretch it.)
+    """
     if fit is None:
         return None
-    reach_m = (scale.height_px - float(ys.min())) * scale.ym_per_px if ys.size else math.nan
+    reach_m = (scale.height_px - fit.top_px) * scale.ym_per_px
     return Line(fit_px=fit.coeffs_px, fit_m=px_to_m(fit.coeffs_px, scale), confidence=fit.confidence,
                 found=True, inferred=False, n_pixels=fit.n_pixels, range_m=reach_m)
 
@@ -312,7 +314,7 @@ def _straddles(got: Measured, px: Pixels, m: Measurer) -> bool:
 def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer, px: Pixels) -> Measured:
     """Measure with one set of search settings: steps 1-5 of :func:`measure`."""
     found, fits, blind = find_lines(binary, px, track, m)
-    lines = (_line(fits[0], found.left.y, m.scale), _line(fits[1], found.right.y, m.scale))
+    lines = (_line(fits[0], m.scale), _line(fits[1], m.scale))
     reasons: list[str] = []
     cfg = m.config.tracking
     if view is not None and cfg.yellow_line_side != "either":

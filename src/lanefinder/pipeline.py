@@ -248,8 +248,8 @@ class LaneFinder:
         The set-up the last frame given to :meth:`process` was seen with: its result's lines
         are in it (self-calibration may put another in use for the next frame).
     last_still : bool
-        The last frame was found as a still (:meth:`process_still` or :meth:`find_as_still`),
-        with a still's measuring rules.
+        The last frame was measured with a still's rules (by :meth:`process_still` or
+        :meth:`find_as_still`, on a finder that does not self-calibrate).
 
     Examples
     --------
@@ -277,7 +277,7 @@ class LaneFinder:
         self.last_birdseye: BirdsEye | None = None
         self.last_still = False
         self._still_source: str | None = None  # a still's own set-up left in use: its label
-        self._in_still = False  # inside process_still: a lone line may start a lane more easily
+        self._in_still = False  # inside process_still or find_as_still: measured with a still's rules
         self._curvature_per_m = math.nan  # the last frame's lane, as read (NaN: no lane)
 
     def birdseye(self, frame_size: tuple[int, int]) -> BirdsEye:
@@ -399,8 +399,8 @@ class LaneFinder:
             When ``frame`` is not a BGR uint8 image, or its size does not suit the camera.
         """
         _check_frame(frame)
-        self.last_still = self._in_still
         be = self.birdseye((frame.shape[1], frame.shape[0]))
+        self.last_still = self._in_still and not self.self_calibrate  # measured with a still's rules
         if self.self_calibrate and (self.selfcal is None or self.selfcal.current.frame_size != be.frame_size):
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
             self._curvature_per_m = math.nan
@@ -493,6 +493,8 @@ class LaneFinder:
         As :meth:`process_still` measures a still once it has chosen its set-up (a lone line
         may start the lane, every piece of a line counts), but no set-up of its own is looked
         for: to see again how a still was found (:func:`lanefinder.stages.inspect_frame`).
+        The track then holds the still's lane: call :meth:`reset` before using the finder for
+        a video.
 
         Parameters
         ----------
@@ -507,7 +509,8 @@ class LaneFinder:
         Raises
         ------
         LaneFinderError
-            As :meth:`process`.
+            As :meth:`process`, and for a finder that self-calibrates (its frames are a
+            video's).
 
         Examples
         --------
@@ -516,6 +519,8 @@ class LaneFinder:
         >>> r.lane_found, r.state
         (True, 're-detect')
         """
+        if self.self_calibrate:
+            raise LaneFinderError("find_as_still needs a finder that does not self-calibrate")
         self.reset()
         self._in_still = True
         try:

@@ -24,7 +24,9 @@ def stage_images(frame: np.ndarray, finder: LaneFinder) -> dict[str, np.ndarray]
     frame : (H, W, 3) uint8 ndarray
         The original frame, BGR.
     finder : LaneFinder
-        Gives the configuration and the camera.
+        Gives the configuration, the camera and the set-up in use (after
+        :meth:`~lanefinder.pipeline.LaneFinder.process_still`, the still's own, and the frame is
+        measured as a still).
 
     Returns
     -------
@@ -103,7 +105,9 @@ def write_stages(folder: Path, stem: str, frame: np.ndarray, finder: LaneFinder,
     frame : (H, W, 3) uint8 ndarray
         The original frame, BGR.
     finder : LaneFinder
-        Gives the configuration and the camera.
+        Gives the configuration, the camera and the set-up in use (after
+        :meth:`~lanefinder.pipeline.LaneFinder.process_still`, the still's own, and the frame is
+        measured as a still).
     outputs : OutputSet, optional
         Write the images as part of this set (put in place when the set commits).
 

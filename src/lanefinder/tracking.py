@@ -471,10 +471,12 @@ def _taken_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str])
 
 def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float], rules: Rules,
                  reasons: list[str]) -> list[float]:
-    """Rule 2: a pair that fails the lane checks keeps one line; both confidences drop.
+    """Rule 2: a pair that fails the lane checks keeps one line; the confidences drop.
 
-    Without a usable track the surer line is kept, and it keeps its confidence when the other
-    is too weak to start a lane alone (below ``min_start_confidence``).
+    Both drop by ``rejected_pair_confidence``, except that without a usable track (a blind
+    start, or re-detecting after ``max_misses``) the surer line is kept and keeps its
+    confidence when the other is too weak to start a lane alone (below
+    ``min_start_confidence``).
     """
     c = rules.cfg
     lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
