@@ -515,9 +515,8 @@ class FitConfig(_Section):
         stretch of solid or worn line) holding less paint than this length of full-width
         marking, in bands kept as above, is left out of the fit (unless the view's far edge
         cuts it): a speck ten metres from the rest stretches the line's span and bends its fit,
-        metres (0: every piece counts;
-        0.5, as ``min_marking_m``: the paint a line needs). Frames of a video only: a single
-        still is fitted with every piece.
+        metres (0: every piece counts; 0.5, as ``min_marking_m``: the paint a line needs).
+        Frames of a video only: a single still is fitted with every piece.
     max_radius_m : float
         Cap on the reported radius, metres (a straight road reports it).
     straight_radius_m : float

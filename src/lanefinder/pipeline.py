@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
@@ -481,11 +483,8 @@ class LaneFinder:
         >>> r.lane_found, r.setup
         (True, 'default')
         """
-        self._in_still = True
-        try:
+        with self._as_still():
             return self._find_still(frame)
-        finally:
-            self._in_still = False
 
     def find_as_still(self, frame: np.ndarray) -> LaneResult:
         """Find the lane in a frame blind, with a still's measuring rules, in the set-up in use.
@@ -522,9 +521,15 @@ class LaneFinder:
         if self.self_calibrate:
             raise LaneFinderError("find_as_still needs a finder that does not self-calibrate")
         self.reset()
+        with self._as_still():
+            return self.process(frame)
+
+    @contextmanager
+    def _as_still(self) -> Iterator[None]:
+        """Measure the frames processed within with a still's rules (:meth:`_still_measurer`)."""
         self._in_still = True
         try:
-            return self.process(frame)
+            yield
         finally:
             self._in_still = False
 

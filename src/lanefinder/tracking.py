@@ -486,12 +486,12 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
         return conf
     reasons.extend(problems)
     # Keep the line that agrees better with the track, else the more confident one.
-    if not track.needs_blind_search(c):
+    if holding:
         drop = 0 if abs(lm[2] - track.fits_m[0][2]) > abs(rm[2] - track.fits_m[1][2]) else 1  # type: ignore[index]
     else:
         drop = 0 if conf[0] < conf[1] else 1
     ok[drop] = False
-    if track.needs_blind_search(c) and conf[drop] < c.min_start_confidence:
+    if not holding and conf[drop] < c.min_start_confidence:
         # A line too weak to start a lane alone says little against a sure one: the sure one keeps its say.
         return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)]
     return [v * c.rejected_pair_confidence for v in conf]
