@@ -6,6 +6,10 @@ Per video: frames; % of frames with a lane shown (measured, or held by the track
 with both lines measured and accepted; lane width mean and std (m); the largest frame-to-frame offset jump (m);
 the median radius over each curve; frames per second end to end.  Outputs (annotated video,
 telemetry, contact sheet) go under --out.  Exit status 2 when the videos are absent.
+
+The contact sheet has --sheet-frames frames (40, as issue 12 asks: no frame of it with a drawn
+line more than 0.5 m off its marking), spread evenly over the video; the same frames, full size,
+go to --out/NAME_sheet/ (JPEG, named by frame number) to be judged by eye.
 """
 
 from __future__ import annotations
@@ -23,6 +27,25 @@ VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
 DEFAULT_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "udacity" / "videos"
 
 
+def sheet_frames_full_size(src: Path, video: Path, folder: Path, n: int) -> None:
+    """Write the contact sheet's frames of ``video`` (``src`` annotated) full size, as JPEGs named by frame number."""
+    import cv2
+    import numpy as np
+
+    from lanefinder.video import VideoInfo, frames
+
+    total = VideoInfo.from_path(src).total_frames  # the count the sheet is spread over
+    if not total or n <= 0:
+        return
+    at = set(np.linspace(0, total - 1, min(n, total)).round().astype(int).tolist())  # as the sheet picks them
+    folder.mkdir(parents=True, exist_ok=True)
+    for f in frames(video):
+        if f.index in at:
+            cv2.imwrite(str(folder / f"{f.index:05d}.jpg"), f.image, [cv2.IMWRITE_JPEG_QUALITY, 90])
+        if f.index >= max(at):
+            break
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--videos", type=Path, default=DEFAULT_DIR)
@@ -30,6 +53,7 @@ def main() -> int:
     ap.add_argument("--config", default=None, help="config file for the pipeline")
     ap.add_argument("--debug", action="store_true", help="write debug (picture-in-picture) videos")
     ap.add_argument("--only", choices=VIDEOS, action="append")
+    ap.add_argument("--sheet-frames", type=int, default=40, help="frames on each contact sheet (40)")
     a = ap.parse_args()
     if not a.videos.is_dir():
         print(f"check_videos: the Udacity videos are not at {a.videos} (pass --videos DIR)", file=sys.stderr)
@@ -42,7 +66,9 @@ def main() -> int:
         src = a.videos / f"{name}.mp4"
         tele = a.out / f"{name}.jsonl"
         s = process_video(src, a.out / f"{name}.mp4", cfg, telemetry=tele, debug=a.debug,
-                          contact_sheet_path=a.out / f"{name}_sheet.png", progress=False)
+                          contact_sheet_path=a.out / f"{name}_sheet.png", sheet_frames=a.sheet_frames,
+                          progress=False)
+        sheet_frames_full_size(src, a.out / f"{name}.mp4", a.out / f"{name}_sheet", a.sheet_frames)
         st = video_stats(read_telemetry(tele))
         st["fps"] = s.fps
         st["redetections"] = s.redetections
