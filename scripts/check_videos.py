@@ -27,22 +27,20 @@ VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
 DEFAULT_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "udacity" / "videos"
 
 
-def sheet_frames_full_size(src: Path, video: Path, folder: Path, n: int) -> None:
-    """Write the contact sheet's frames of ``video`` (``src`` annotated) full size, as JPEGs named by frame number."""
+def sheet_frames_full_size(video: Path, folder: Path, at: tuple[int, ...]) -> None:
+    """Write the frames ``at`` (places in ``video``: the contact sheet's) full size, as JPEGs named by frame number."""
     import cv2
-    import numpy as np
 
-    from lanefinder.video import VideoInfo, frames
+    from lanefinder.video import frames
 
-    total = VideoInfo.from_path(src).total_frames  # the count the sheet is spread over
-    if not total or n <= 0:
+    if not at:
         return
-    at = set(np.linspace(0, total - 1, min(n, total)).round().astype(int).tolist())  # as the sheet picks them
+    wanted, last = set(at), max(at)
     folder.mkdir(parents=True, exist_ok=True)
     for f in frames(video):
-        if f.index in at:
+        if f.index in wanted:
             cv2.imwrite(str(folder / f"{f.index:05d}.jpg"), f.image, [cv2.IMWRITE_JPEG_QUALITY, 90])
-        if f.index >= max(at):
+        if f.index >= last:
             break
 
 
@@ -68,7 +66,7 @@ def main() -> int:
         s = process_video(src, a.out / f"{name}.mp4", cfg, telemetry=tele, debug=a.debug,
                           contact_sheet_path=a.out / f"{name}_sheet.png", sheet_frames=a.sheet_frames,
                           progress=False)
-        sheet_frames_full_size(src, a.out / f"{name}.mp4", a.out / f"{name}_sheet", a.sheet_frames)
+        sheet_frames_full_size(a.out / f"{name}.mp4", a.out / f"{name}_sheet", s.sheet_frames)
         st = video_stats(read_telemetry(tele))
         st["fps"] = s.fps
         st["redetections"] = s.redetections

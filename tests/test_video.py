@@ -67,9 +67,11 @@ def test_telemetry_rows_and_fields(run_csv):
 def test_contact_sheet_and_plot(run_csv, tmp_path):
     import cv2
 
-    out, _ = run_csv
+    out, summary = run_csv
     sheet = cv2.imread(str(out / "sheet.png"))
     assert sheet is not None and sheet.shape[1] > 1000
+    # The frames on the sheet, by their place in the run: 20 spread over the 30, first and last included.
+    assert len(summary.sheet_frames) == 20 and summary.sheet_frames[0] == 0 and summary.sheet_frames[-1] == 29
     p = subprocess.run([sys.executable, "-m", "lanefinder", "plot", str(out / "t.csv"), "-o", str(tmp_path / "p.png")],
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr

@@ -134,6 +134,9 @@ class VideoSummary:
         The self-calibration's last word, when the run self-calibrated.
     contact_sheet : str or None
         The contact sheet, when one was written.
+    sheet_frames : tuple of int
+        The frames on the contact sheet, by their place in the run (0: the first frame
+        processed, as in the annotated video); empty without a sheet.
 
     Examples
     --------
@@ -160,6 +163,7 @@ class VideoSummary:
     events_path: str | None = None
     setup: SetupState | None = None
     contact_sheet: str | None = None
+    sheet_frames: tuple[int, ...] = ()
 
     def lines(self) -> list[str]:
         """Return the end-of-run summary as printed lines.
@@ -336,6 +340,7 @@ class _Run:
         self.sheet_at = set(np.linspace(0, expected - 1, min(sheet_frames, expected)).round().astype(int).tolist()) \
             if sheet_frames else set()
         self.thumbs: list[tuple[float, np.ndarray]] = []
+        self.sheet_frames: list[int] = []  # their places in the run
         self.counts = RunCounts()
 
     def frame(self, f: Frame, draw: bool) -> tuple[LaneResult, np.ndarray | None]:
@@ -350,6 +355,7 @@ class _Run:
                 draw_debug(out, result)
             if on_sheet:
                 self.thumbs.append((f.time_s, _thumb(out)))
+                self.sheet_frames.append(self.counts.frames)
         return result, (out if draw else None)
 
     def emit(self, f: Frame, result: LaneResult, out: np.ndarray | None, writer: TelemetryWriter | None,
@@ -549,4 +555,5 @@ def process_video(
         events=found, events_path=str(events) if events is not None else None,
         setup=finder.selfcal.state if finder.selfcal is not None else None,
         contact_sheet=str(contact_sheet_path) if contact_sheet_path else None,
+        sheet_frames=tuple(run.sheet_frames) if contact_sheet_path and run.thumbs else (),
     )
