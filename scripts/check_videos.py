@@ -53,6 +53,8 @@ def main() -> int:
     ap.add_argument("--only", choices=VIDEOS, action="append")
     ap.add_argument("--sheet-frames", type=int, default=40, help="frames on each contact sheet (40)")
     a = ap.parse_args()
+    if a.sheet_frames < 0:
+        ap.error(f"--sheet-frames must be 0 or more (got {a.sheet_frames})")
     if not a.videos.is_dir():
         print(f"check_videos: the Udacity videos are not at {a.videos} (pass --videos DIR)", file=sys.stderr)
         return 2

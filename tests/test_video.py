@@ -181,3 +181,12 @@ def test_variable_frame_rate_gives_increasing_frame_numbers(tmp_path):
     assert len(idx) == 10 and idx == sorted(set(idx))
     rows = [{"frame": f.index, "time_s": f.time_s, "state": "tracking", "offset_m": 0.0, "width_m": 3.7} for f in got]
     assert detect_events(rows, 25.0) == []
+
+
+def test_a_contact_sheet_of_a_negative_number_of_frames_is_refused(tmp_path):
+    from lanefinder.errors import LaneFinderError
+
+    with pytest.raises(LaneFinderError, match="whole number of frames"):
+        process_video(CHALLENGE, None, telemetry=tmp_path / "t.csv", contact_sheet_path=tmp_path / "s.png",
+                      sheet_frames=-3, progress=False)
+    assert not any(tmp_path.iterdir())  # refused before anything was written

@@ -448,7 +448,7 @@ def process_video(
     contact_sheet_path : str or Path, optional
         A PNG grid of ``sheet_frames`` frames spread over the run.
     sheet_frames : int
-        Frames on the contact sheet.
+        Frames on the contact sheet (0 or more).
     progress : bool
         Show a progress bar.
     max_frames : int, optional
@@ -481,6 +481,8 @@ def process_video(
     cfg = config or Config()
     src, dst = Path(src), (Path(dst) if dst is not None else None)
     _check_args(dst, telemetry, contact_sheet_path, start_s, end_s, events, collecting=on_result is not None)
+    if not (isinstance(sheet_frames, int) and sheet_frames >= 0):
+        raise LaneFinderError(f"a contact sheet needs a whole number of frames, 0 or more (got {sheet_frames!r})")
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
