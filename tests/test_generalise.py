@@ -1,6 +1,7 @@
 """Generalisation on randomised synthetic roads (issue 12): no lag in a curve entry, the lane held on worn paint.
 
-Seeds 3-6 were never used for tuning (tuning used seeds 0-2; `make eval` reports 101-102).
+Seeds 3-6 were never used for tuning (tuning used seeds 0-2; `make eval` reports 101-102); the
+far-field test uses tuning seeds 0 and 2, as it checks the change tuned on them.
 Measured on 100 frames (4 s) at 640x360, each with a look and camera drawn from its seed:
 worn seed 3, no frame without a lane, lateral error 6 m ahead p90 0.022 m; curve-entry
 (R down to 250 m and back in tree shadow, lateral drift) seeds 3 and 6, p90 0.022 and 0.036 m.
@@ -51,3 +52,14 @@ def test_worn_paint_on_light_concrete_is_found_by_the_second_look(tmp_path):
     # lane on 18% of the frames (dash gaps near the car).
     after = _run(tmp_path, "worn", 4, frames=50, size=(1280, 720))
     assert after.accuracy >= 0.72 and after.no_lane_rate is not None and after.no_lane_rate <= 0.2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "band", "least"), [(0, "70+", 0.90), (2, "40-70", 0.95)])
+def test_dashed_lines_are_followed_far_ahead_across_missed_dashes(tmp_path, seed, band, least):
+    # Tuning seeds 0 and 2 (straight, dashed lines), 30 frames at 720p. Far ahead a dash spans a
+    # frame row or two and is often missed: before the far search crossed 40 m of missing paint
+    # and held to the near fit's extension (far.anchor_m), seed 0 scored 0.583 at 70+ m and seed 2
+    # 0.367 at 40-70 m; measured after, 0.950 and 1.000.
+    rep = _run(tmp_path, "straight", seed, frames=30, size=(1280, 720))
+    assert rep.band_accuracy[band] is not None and rep.band_accuracy[band] >= least

@@ -9,10 +9,15 @@ One remap takes the raw frame to it.
 Each shown line is then followed from the top of the near view outwards: its fit, extended,
 predicts the marking's column row by row; the marking pixels found in a window around the
 prediction (the window widens with distance) correct it as the search goes; gaps up to
-``far.max_gap_m`` (a dash period) are crossed.  A correction c1*s + c2*s^2 (s: bird's-eye pixels
-beyond the top edge, so it is zero and smooth where the near fit ends) is fitted to what was
-found, and the line's far part is the near fit plus that correction, as far as the farthest
-marking found.  The near fit, and so the lane numbers at the car, are not changed.
+``far.max_gap_m`` (several dash periods: a far dash spans a row or two and is often missed)
+are crossed.  A correction c1*s + c2*s^2 (s: bird's-eye pixels beyond the top edge, so it is
+zero and smooth where the near fit ends) is fitted to what was found, together with one row
+taken as found on the near fit's extension ``far.anchor_m`` beyond the top edge (so a stray
+pixel in the first far rows, where a small offset is a steep slope, does not steer the search
+off the line), and the line's far part is the near fit plus that correction, as far as the
+farthest marking found.  A far part whose rows scatter about that curve by more than
+``far.max_scatter_m`` is texture, not paint, and is dropped.  The near fit, and so the lane
+numbers at the car, are not changed.
 """
 
 from __future__ import annotations
@@ -233,7 +238,8 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     Returns
     -------
     FarLine or None
-        None when fewer than ``cfg.min_rows`` rows hold the marking.
+        None when fewer than ``cfg.min_rows`` rows hold the marking, or when the rows found
+        scatter about their curve by more than ``cfg.max_scatter_m`` (median): texture.
 
     Examples
     --------
@@ -261,7 +267,9 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     u_fit = poly_x(fit_px, fv.v_px) - fv.u0_px  # in far-view columns
     s = -fv.v_px  # bird's-eye pixels beyond the top edge
     found_s, found_r, last_d = [], [], d_top
-    sums = _Sums()
+    ym_per_px = abs((fv.d_m[0] - fv.d_m[-1]) / (fv.v_px[0] - fv.v_px[-1]))
+    anchor_s = cfg.anchor_m / ym_per_px  # the near fit's extension is taken as found there
+    sums = _Sums(anchor_s)
     searched = 0
     d_rows, s_rows, u_rows = fv.d_m.tolist(), s.tolist(), u_fit.tolist()
     count_at, colsum_at = count.item, colsum.item  # (Python ints: the loop's indexing stays cheap)
@@ -286,7 +294,11 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
             last_d = d
     if len(found_s) < cfg.min_rows:
         return None
-    c1, c2 = _fit_correction(found_s, found_r)
+    c1, c2 = _fit_correction(found_s, found_r, anchor_s)
+    if cfg.max_scatter_m > 0:
+        scatter = statistics.median(abs(c1 * si + c2 * si * si - ri) for si, ri in zip(found_s, found_r, strict=True))
+        if scatter * xm_per_px > cfg.max_scatter_m:
+            return None
     a, b, c = (float(v) for v in fit_px)
     far_fit = np.array([a + c2, b - c1, c])  # x(v) + c1*s + c2*s^2 with s = -v (bird's-eye x)
     end_s = max(found_s)
@@ -298,10 +310,12 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
 class _Sums:
     """Running sums for the least-squares correction r = c1*s + c2*s^2 while the search goes."""
 
-    def __init__(self) -> None:
+    def __init__(self, anchor_s: float = 0.0) -> None:
         self.n = 0
         self.s_max = 0.0
-        self.s2 = self.s3 = self.s4 = self.rs = self.rs2 = 0.0
+        self.rs = self.rs2 = 0.0
+        # The anchor: a row found on the near fit's extension (r = 0) at s = anchor_s.
+        self.s2, self.s3, self.s4 = anchor_s ** 2, anchor_s ** 3, anchor_s ** 4
 
     def add(self, s: float, r: float) -> None:
         s2 = s * s
@@ -329,8 +343,10 @@ class _Sums:
         return c1 * s + c2 * s * s
 
 
-def _fit_correction(s: list[float], r: list[float]) -> tuple[float, float]:
+def _fit_correction(s: list[float], r: list[float], anchor_s: float = 0.0) -> tuple[float, float]:
     """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs.
+
+    A row at ``anchor_s`` with r = 0 is always part of the fit (0: none).
 
     In plain floats: a line's far part has a few dozen points at most.
     """
@@ -339,7 +355,8 @@ def _fit_correction(s: list[float], r: list[float]) -> tuple[float, float]:
     for _ in range(2):
         if len(keep) < 2:
             break
-        a11 = a12 = a22 = b1 = b2 = 0.0
+        a11, a12, a22 = anchor_s ** 2, anchor_s ** 3, anchor_s ** 4  # the anchor row (r = 0)
+        b1 = b2 = 0.0
         for i in keep:
             si, ri = s[i], r[i]
             s2 = si * si
