@@ -2,6 +2,7 @@
 
     python scripts/eval_synthetic.py [--frames 50] [--seeds 101 102] [--out output/eval] [--only NAME ...]
                                      [--fixed] [--config CFG] [--reuse] [--self-calibrate]
+                                     [--lens-hfov DEG --size WxH]
 
 For each scenario and seed: render the sequence (lanefinder.synth), run the video job with the
 sequence's exact bird's-eye set-up (telemetry only), and score all the seeds' frames together
@@ -25,6 +26,10 @@ scenes. `--reuse` keeps sequences already rendered in the output folder.
 lens but without the set-up (`lanefinder video` with no `[birdseye]`), so the default set-up is
 used until self-calibration has an estimate of its own (telemetry `telemetry_selfcal.jsonl`,
 report `report_selfcal.json`).
+
+`--lens-hfov 90 --size 1920x1080` renders with another lens than the Udacity camera: an ideal
+(distortion-free) lens of that horizontal field of view, for frames of that size (with
+`--self-calibrate`, the lens is given as a camera file and the set-up is not).
 """
 
 from __future__ import annotations
@@ -35,27 +40,41 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from lanefinder.camera import CameraModel, load_camera
 from lanefinder.config import Config, load_config
+from lanefinder.errors import LaneFinderError
 from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
 from lanefinder.synth import SCENARIOS, write_sequence
 from lanefinder.videojob import process_video
 
 
-def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool) -> Path:
+def _same_lens(folder: Path, camera: CameraModel | None) -> bool:
+    """Tell whether the sequence in ``folder`` was rendered with ``camera`` (None: the Udacity camera)."""
+    if camera is None:
+        return True  # (as before: folders of the default lens)
+    try:
+        had = load_camera(folder / "camera.json")
+    except (OSError, ValueError, LaneFinderError):
+        return False
+    return had.image_size == camera.image_size and abs(had.camera_matrix[0, 0] - camera.camera_matrix[0, 0]) < 0.5
+
+
+def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool,
+             camera: CameraModel | None = None) -> Path:
     """Render a sequence, or keep the one in ``folder`` when it was made the same way."""
     meta = folder / "scenario.json"
-    if reuse and meta.is_file() and (folder / "gt.jsonl").is_file():
+    if reuse and meta.is_file() and (folder / "gt.jsonl").is_file() and _same_lens(folder, camera):
         m = json.loads(meta.read_text())
         if m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise:
             return folder
-    return write_sequence(name, frames, folder, seed, randomise=randomise)
+    return write_sequence(name, frames, folder, seed, camera=camera, randomise=randomise)
 
 
 def run(name: str, frames: int, seeds: list[int], out: Path, base: Config, randomise: bool = True,
-        reuse: bool = False, own_setup: bool = True):
+        reuse: bool = False, own_setup: bool = True, camera: CameraModel | None = None):
     gt, pred = {}, {}
     for seed in seeds:
-        folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse)
+        folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse, camera)
         own = load_config(folder / "config.toml")
         # With the exact set-up, or (own_setup False) with the camera's lens only, as a user with an
         # unknown mount runs `lanefinder video`: the default set-up, then self-calibration.
@@ -80,12 +99,25 @@ def main() -> int:
     ap.add_argument("--reuse", action="store_true", help="keep sequences already rendered under --out")
     ap.add_argument("--self-calibrate", action="store_true",
                     help="run without each sequence's set-up (its lens only): the default set-up and self-calibration")
+    ap.add_argument("--lens-hfov", type=float, help="an ideal lens of this horizontal field of view, degrees")
+    ap.add_argument("--size", default="1280x720", help="frame size WxH for --lens-hfov (1280x720)")
     a = ap.parse_args()
+    camera = None
+    if a.lens_hfov is not None:
+        if not 1.0 <= a.lens_hfov <= 170.0:
+            ap.error(f"--lens-hfov must be 1-170 degrees, not {a.lens_hfov:g}")
+        try:
+            w, h = (int(v) for v in a.size.lower().split("x"))
+            if w < 64 or h < 64:
+                raise ValueError
+        except ValueError:
+            ap.error(f"--size must be WxH in pixels, each at least 64 (e.g. 1920x1080), not {a.size!r}")
+        camera = CameraModel.ideal((w, h), hfov_deg=a.lens_hfov)
     base = load_config(a.config) if a.config else Config()
     results = {}
     for name in a.only or SCENARIOS:
         results[name] = run(name, a.frames, a.seeds, a.out, base, randomise=not a.fixed, reuse=a.reuse,
-                            own_setup=not a.self_calibrate)
+                            own_setup=not a.self_calibrate, camera=camera)
         head, row = results[name].table(name).split("\n")
         if len(results) == 1:
             print(head)
@@ -98,6 +130,8 @@ def main() -> int:
     report.write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
     look = "fixed look" if a.fixed else "look and camera drawn from each seed"
+    if camera is not None:
+        look += f", an ideal {a.lens_hfov:g}-degree lens at {a.size}"
     setup = "the default set-up and self-calibration" if a.self_calibrate else "each sequence's exact set-up"
     print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}, {look}, {setup}; report: {report}")
     return 0

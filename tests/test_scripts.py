@@ -1,0 +1,24 @@
+"""The measuring scripts refuse bad arguments with one line, before any work."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["--lens-hfov", "500"], "--lens-hfov must be 1-170 degrees"),
+    (["--lens-hfov", "90", "--size", "19x"], "--size must be WxH"),
+    (["--lens-hfov", "90", "--size", "10x10"], "--size must be WxH"),
+])
+def test_eval_synthetic_refuses_a_lens_it_cannot_render(tmp_path, args, says):
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "eval_synthetic.py"), "--out", str(tmp_path), *args],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2
+    assert says in p.stderr and "Traceback" not in p.stderr
+    assert not any(tmp_path.iterdir())  # nothing rendered
