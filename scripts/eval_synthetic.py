@@ -29,7 +29,9 @@ report `report_selfcal.json`).
 
 `--lens-hfov 90 --size 1920x1080` renders with another lens than the Udacity camera: an ideal
 (distortion-free) lens of that horizontal field of view, for frames of that size (with
-`--self-calibrate`, the lens is given as a camera file and the set-up is not).
+`--self-calibrate`, the lens is given as a camera file and the set-up is not); `--size 640x360`
+alone renders with the Udacity lens scaled to that size. `--reuse` keeps a sequence only when
+it was rendered with the same lens.
 """
 
 from __future__ import annotations
@@ -40,7 +42,9 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from lanefinder.camera import CameraModel, load_camera
+import numpy as np
+
+from lanefinder.camera import CameraModel, load_camera, udacity_camera
 from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
 from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
@@ -50,13 +54,13 @@ from lanefinder.videojob import process_video
 
 def _same_lens(folder: Path, camera: CameraModel | None) -> bool:
     """Tell whether the sequence in ``folder`` was rendered with ``camera`` (None: the Udacity camera)."""
-    if camera is None:
-        return True  # (as before: folders of the default lens)
+    want = camera or udacity_camera()
     try:
         had = load_camera(folder / "camera.json")
     except (OSError, ValueError, LaneFinderError):
         return False
-    return had.image_size == camera.image_size and abs(had.camera_matrix[0, 0] - camera.camera_matrix[0, 0]) < 0.5
+    return (had.image_size == want.image_size and np.allclose(had.camera_matrix, want.camera_matrix, atol=0.5)
+            and np.allclose(had.dist_coeffs.ravel(), want.dist_coeffs.ravel(), atol=1e-6))
 
 
 def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool,
@@ -100,19 +104,25 @@ def main() -> int:
     ap.add_argument("--self-calibrate", action="store_true",
                     help="run without each sequence's set-up (its lens only): the default set-up and self-calibration")
     ap.add_argument("--lens-hfov", type=float, help="an ideal lens of this horizontal field of view, degrees")
-    ap.add_argument("--size", default="1280x720", help="frame size WxH for --lens-hfov (1280x720)")
+    ap.add_argument("--size", help="frame size WxH (default 1280x720): the Udacity lens scaled to it, or --lens-hfov's")
     a = ap.parse_args()
     camera = None
-    if a.lens_hfov is not None:
-        if not 1.0 <= a.lens_hfov <= 170.0:
-            ap.error(f"--lens-hfov must be 1-170 degrees, not {a.lens_hfov:g}")
+    if a.frames < 1:
+        ap.error(f"--frames must be at least 1, not {a.frames}")
+    if a.lens_hfov is not None and not 1.0 <= a.lens_hfov <= 170.0:
+        ap.error(f"--lens-hfov must be 1-170 degrees, not {a.lens_hfov:g}")
+    size = (1280, 720)
+    if a.size is not None:
         try:
-            w, h = (int(v) for v in a.size.lower().split("x"))
-            if w < 64 or h < 64:
+            size = tuple(int(v) for v in a.size.lower().split("x"))
+            if len(size) != 2 or min(size) < 64:
                 raise ValueError
         except ValueError:
             ap.error(f"--size must be WxH in pixels, each at least 64 (e.g. 1920x1080), not {a.size!r}")
-        camera = CameraModel.ideal((w, h), hfov_deg=a.lens_hfov)
+    if a.lens_hfov is not None:
+        camera = CameraModel.ideal(size, hfov_deg=a.lens_hfov)
+    elif size != (1280, 720):
+        camera = udacity_camera().scaled_to(size)
     base = load_config(a.config) if a.config else Config()
     results = {}
     for name in a.only or SCENARIOS:
@@ -130,8 +140,10 @@ def main() -> int:
     report.write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
     look = "fixed look" if a.fixed else "look and camera drawn from each seed"
-    if camera is not None:
-        look += f", an ideal {a.lens_hfov:g}-degree lens at {a.size}"
+    if a.lens_hfov is not None:
+        look += f", an ideal {a.lens_hfov:g}-degree lens at {size[0]}x{size[1]}"
+    elif camera is not None:
+        look += f", the Udacity lens at {size[0]}x{size[1]}"
     setup = "the default set-up and self-calibration" if a.self_calibrate else "each sequence's exact set-up"
     print(f"\n{a.frames} frames per scenario and seed, seeds {seeds}, {look}, {setup}; report: {report}")
     return 0

@@ -15,6 +15,8 @@ ROOT = Path(__file__).resolve().parents[1]
     (["--lens-hfov", "500"], "--lens-hfov must be 1-170 degrees"),
     (["--lens-hfov", "90", "--size", "19x"], "--size must be WxH"),
     (["--lens-hfov", "90", "--size", "10x10"], "--size must be WxH"),
+    (["--size", "640x"], "--size must be WxH"),
+    (["--frames", "0"], "--frames must be at least 1"),
 ])
 def test_eval_synthetic_refuses_a_lens_it_cannot_render(tmp_path, args, says):
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "eval_synthetic.py"), "--out", str(tmp_path), *args],

@@ -727,6 +727,11 @@ class FarConfig(_Section):
         marking but texture (leaves, gravel, a verge) and is dropped (0: kept).  Measured: on
         the project video half the far parts scatter under 0.03 m and nine in ten under
         0.08 m; on the harder challenge video's verges and bushes half scatter over 0.1 m.
+    min_px_per_m : float
+        The far view ends where a metre across the road spans fewer frame pixels than this
+        (0: at ``max_range_m`` only): beyond, a marking is narrower than about a pixel and
+        what is found is mostly noise.  8 keeps the whole view at 1280x720 with the Udacity
+        lens (about 12 px a metre at 96 m) and ends it about 62 m ahead at 640x360.
 
     Examples
     --------
@@ -746,6 +751,7 @@ class FarConfig(_Section):
     noise_factor: Annotated[float, Field(ge=0, le=20)] = 0.0
     anchor_m: Annotated[float, Field(ge=0, le=100)] = 20.0
     max_scatter_m: Annotated[float, Field(ge=0, le=10)] = 0.12
+    min_px_per_m: Annotated[float, Field(ge=0, le=1000)] = 8.0
 
 
 class RenderConfig(_Section):

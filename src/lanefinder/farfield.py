@@ -4,7 +4,8 @@ The bird's-eye view ends about 35 m ahead (the default set-up), while markings s
 70-100 m at 720p.  The far view continues the bird's-eye plane beyond its top edge, with the
 same columns (so the same x, the same metres per pixel across and the same threshold) and one
 row per row of the frame (so it holds what the camera resolves, no more): about 30 rows at 720p.
-One remap takes the raw frame to it.
+One remap takes the raw frame to it.  It ends where the frame no longer resolves a marking (a
+metre across the road under ``far.min_px_per_m`` frame pixels: about 62 m ahead at 640x360).
 
 Each shown line is then followed from the top of the near view outwards: its fit, extended,
 predicts the marking's column row by row; the marking pixels found in a window around the
@@ -136,7 +137,8 @@ def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
     be : BirdsEye
         The near set-up.
     cfg : FarConfig
-        ``max_range_m`` bounds how far ahead the rows go (from the bird's-eye bottom row).
+        ``max_range_m`` bounds how far ahead the rows go (from the bird's-eye bottom row), and
+        ``min_px_per_m`` how coarse the frame may be there.
 
     Returns
     -------
@@ -173,6 +175,15 @@ def make_farview(be: BirdsEye, cfg: FarConfig) -> FarView | None:
     if steps.size < 2:
         return None
     v_rows = np.interp(y[0] - steps, y[::-1], v[::-1])[::-1]  # farthest first
+    if cfg.min_px_per_m > 0:
+        # Only as far as the frame resolves a marking: a metre across the road spans at least
+        # min_px_per_m frame pixels (a 0.15 m line 1.5 px at 10).
+        across = be.to_frame(np.column_stack([np.tile([w / 2, w / 2 + 1.0 / be.xm_per_px], v_rows.size),
+                                              np.repeat(v_rows, 2)]))
+        px_per_m = np.hypot(*(across[1::2] - across[::2]).T)
+        v_rows = v_rows[px_per_m >= cfg.min_px_per_m]
+        if v_rows.size < 2:
+            return None
     width = round(w * cfg.width_factor)
     u0 = (w - width) / 2
     cols = u0 + np.arange(width, dtype=np.float64)
@@ -230,7 +241,8 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     xm_per_px : float
         Metres per bird's-eye pixel across the road.
     cfg : FarConfig
-        The search window, its growth, the gap allowed and the rows needed.
+        The search window, its growth, the gap allowed, the rows needed, the anchor
+        (``anchor_m``) and the scatter allowed (``max_scatter_m``).
     col0 : (K,) int ndarray, optional
         When ``far_binary`` is a strip (:meth:`FarView.strip`): the far-view column of each
         row's first pixel; default 0 (the whole far view).
@@ -308,7 +320,10 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
 
 
 class _Sums:
-    """Running sums for the least-squares correction r = c1*s + c2*s^2 while the search goes."""
+    """Running sums for the least-squares correction r = c1*s + c2*s^2 while the search goes.
+
+    They start with the anchor: a row with r = 0 at ``anchor_s`` (see :func:`follow_line`).
+    """
 
     def __init__(self, anchor_s: float = 0.0) -> None:
         self.n = 0
