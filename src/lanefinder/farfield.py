@@ -306,11 +306,9 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
             last_d = d
     if len(found_s) < cfg.min_rows:
         return None
-    c1, c2 = _fit_correction(found_s, found_r, anchor_s)
-    if cfg.max_scatter_m > 0:
-        scatter = statistics.median(abs(c1 * si + c2 * si * si - ri) for si, ri in zip(found_s, found_r, strict=True))
-        if scatter * xm_per_px > cfg.max_scatter_m:
-            return None
+    c1, c2, residuals = _fit_correction(found_s, found_r, anchor_s)
+    if cfg.max_scatter_m > 0 and statistics.median(residuals) * xm_per_px > cfg.max_scatter_m:
+        return None
     a, b, c = (float(v) for v in fit_px)
     far_fit = np.array([a + c2, b - c1, c])  # x(v) + c1*s + c2*s^2 with s = -v (bird's-eye x)
     end_s = max(found_s)
@@ -358,15 +356,17 @@ class _Sums:
         return c1 * s + c2 * s * s
 
 
-def _fit_correction(s: list[float], r: list[float], anchor_s: float = 0.0) -> tuple[float, float]:
+def _fit_correction(s: list[float], r: list[float], anchor_s: float = 0.0) -> tuple[float, float, list[float]]:
     """Least squares r = c1*s + c2*s^2, once more without the points off by over 3 MADs.
 
-    A row at ``anchor_s`` with r = 0 is always part of the fit (0: none).
+    A row at ``anchor_s`` with r = 0 is always part of the fit (0: none).  Returns c1, c2 and
+    every point's distance from that curve (the points left out too).
 
     In plain floats: a line's far part has a few dozen points at most.
     """
     keep = list(range(len(s)))
     c1 = c2 = 0.0
+    res = [abs(ri) for ri in r]
     for _ in range(2):
         if len(keep) < 2:
             break
@@ -388,7 +388,7 @@ def _fit_correction(s: list[float], r: list[float], anchor_s: float = 0.0) -> tu
         res = [abs(c1 * si + c2 * si * si - ri) for si, ri in zip(s, r, strict=True)]
         limit = 3 * (statistics.median(res[i] for i in keep) + 0.5)
         keep = [i for i, e in enumerate(res) if e <= limit]
-    return c1, c2
+    return c1, c2, res
 
 
 def far_rows(end_px: float, n: int) -> np.ndarray:
