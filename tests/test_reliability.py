@@ -13,6 +13,7 @@ Every loop is bounded in count (``max_examples``) and every subprocess in time.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import json
@@ -27,6 +28,7 @@ from fractions import Fraction
 from pathlib import Path
 
 import av
+import cv2
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -199,7 +201,7 @@ CASES = [
     ("video --start nan", "video {w}/clip.mp4 -o {w}/o.mp4 --start nan", "not a finite number"),
     ("video --end -1", "video {w}/clip.mp4 -o {w}/o.mp4 --end -1", "not in the range"),
     ("video still image", "video {w}/test3.jpg -o {w}/o.mp4", "still image, not a video"),
-    ("video folder", "video {w} -o {w}/o.mp4", "video not found"),
+    ("video folder", "video {w} -o {w}/o.mp4", "not a file"),
     ("video huge view", "video {w}/clip.mp4 -o {w}/o.mp4 -c {w}/big.toml", "less than or equal to 8192"),
     ("config binary garbage", "config --check {w}/garbage.toml", "garbage.toml"),
     ("config --check X -o X", "config --check {w}/thick.toml -o {w}/thick.toml", "refusing to overwrite"),
@@ -515,3 +517,118 @@ def test_partial_names_are_checked_before_any_work(tmp_path):
     with pytest.raises(LaneFinderError, match="not made to be kept as partial"):
         plain.commit(partial=True)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.partial.mp4"]
+
+
+# -- every number of the config is bounded, and its bounds run in bounded time -----------------
+def _numbers(model: object, prefix: str = ""):
+    """Each numeric field of a config section (recursively): its path, value and bounds."""
+    from typing import Literal, get_origin
+
+    from annotated_types import Ge, Gt, Le, Lt
+
+    for name, field in type(model).model_fields.items():
+        value = getattr(model, name)
+        if hasattr(type(value), "model_fields"):
+            yield from _numbers(value, f"{prefix}{name}.")
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or get_origin(field.annotation) is Literal:
+            continue  # (a choice among listed values is bounded by its list)
+        lo = hi = None
+        for m in field.metadata:
+            lo = m.gt if isinstance(m, Gt) else m.ge if isinstance(m, Ge) else lo
+            hi = m.lt if isinstance(m, Lt) else m.le if isinstance(m, Le) else hi
+        yield f"{prefix}{name}", value, lo, hi
+
+
+def _with(path: str, value: float) -> dict:
+    section, _, key = path.rpartition(".")
+    out: dict = {}
+    node = out
+    for part in section.split("."):
+        node = node.setdefault(part, {})
+    node[key] = value
+    return out
+
+
+NUMBERS = list(_numbers(config_from_dict({}, "defaults")))
+
+
+def test_every_number_of_the_config_is_bounded_both_ways():
+    # An unbounded size once hung a run (threshold.ridge.width_m = 1e6: a window a kilometre wide)
+    # or overflowed (search.margin_m = 1e308); a tiny step multiplied the work (heading_step_deg).
+    unbounded = [p for p, _, lo, hi in NUMBERS if lo is None or hi is None]
+    assert not unbounded, f"config numbers without both bounds: {unbounded}"
+
+
+@pytest.mark.parametrize(("path", "value"), [("search.heading_step_deg", 1e-9), ("threshold.ridge.width_m", 1e6),
+                                             ("search.margin_m", 1e308), ("search.peak_smoothing_m", 1e12),
+                                             ("tracking.interior_strip_m", 1e-6)])
+def test_values_that_hung_or_crashed_a_run_are_refused(path, value):
+    with pytest.raises(LaneFinderError, match=path.rpartition(".")[2]):
+        config_from_dict(_with(path, value), "x")
+
+
+@pytest.mark.slow
+def test_every_config_number_at_its_bounds_runs_in_bounded_time():
+    frame = cv2.resize(cv2.imread(str(TEST_IMAGES / "test3.jpg")), (640, 360))
+    slow = []
+    for path, value, lo, hi in NUMBERS:
+        for bound in (lo, hi):
+            v = type(value)(bound) if isinstance(value, int) else float(bound)
+            step = 1 if isinstance(value, int) else 1e-6 * max(1.0, abs(v))
+            cfg = None  # an open bound is itself refused; a hair inside it is what a user could give
+            for tried in (v, v + step if bound == lo else v - step):
+                with contextlib.suppress(LaneFinderError):  # (or another setting's rule refuses it)
+                    cfg = cfg or config_from_dict(_with(path, tried), "x")
+            if cfg is None:
+                continue
+            t = time.perf_counter()
+            try:
+                finder = LaneFinder(cfg)
+                finder.process_still(frame)
+                finder.reset()
+                for _ in range(3):
+                    finder.process(frame)
+            except LaneFinderError:
+                pass
+            if time.perf_counter() - t > 5.0:
+                slow.append((path, bound, round(time.perf_counter() - t, 1)))
+    assert not slow, f"settings that run for over 5 s on four small frames: {slow}"
+
+
+def test_an_image_too_large_to_decode_is_one_clear_line(tmp_path):
+    from lanefinder.io import read_image
+
+    data = bytearray((TEST_IMAGES / "test1.jpg").read_bytes())
+    sof = next(i for i in range(len(data) - 9) if data[i] == 0xFF and data[i + 1] in (0xC0, 0xC2))
+    data[sof + 5:sof + 9] = (60000).to_bytes(2, "big") * 2  # the header claims 60000 x 60000
+    (tmp_path / "huge.jpg").write_bytes(bytes(data))
+    with pytest.raises(LaneFinderError, match="too large to decode"):
+        read_image(tmp_path / "huge.jpg")
+
+
+def test_an_image_over_the_memory_budget_is_refused_before_it_is_decoded(tmp_path, monkeypatch):
+    from lanefinder import imagejob, io
+
+    cv2.imwrite(str(tmp_path / "big.png"), np.zeros((3000, 4000), np.uint8))
+    monkeypatch.setattr(imagejob, "read_image", lambda p: pytest.fail("decoded"))
+    assert io.image_size(tmp_path / "big.png") == (4000, 3000)
+    run = imagejob.process_images([tmp_path / "big.png"], tmp_path / "out",
+                                  config_from_dict({"limits": {"memory_mb": 64}}, "x"))
+    assert not run.rows and "needs about" in run.failures[0][1]
+
+
+def test_a_line_cut_short_is_named_by_its_line_number(tmp_path):
+    path = tmp_path / "t.jsonl"
+    path.write_text('{"frame": 0, "state": "lost"}\n{"frame": 1, "state": "lo')
+    with pytest.raises(LaneFinderError, match=r"line 2, cut short"):
+        read_telemetry(path)
+    with pytest.raises(LaneFinderError, match=r"not JSON Lines \(line 2"):
+        read_ground_truth(path)
+
+
+def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):
+    # (plot once drew an empty figure from it and exited 0); an empty value is not a missing one
+    (tmp_path / "t.csv").write_text("frame,time_s,state,offset_m\n0,0.0,lost,\n1,2\n")
+    with pytest.raises(LaneFinderError, match="row 2 has fewer values than the header"):
+        read_telemetry(tmp_path / "t.csv")

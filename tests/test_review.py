@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import socket
@@ -9,6 +10,7 @@ import subprocess
 import sys
 import threading
 import time
+import urllib.request
 from pathlib import Path
 
 import pytest
@@ -315,3 +317,27 @@ def test_telemetry_without_frame_numbers_is_one_line(tmp_path):
     (tmp_path / "h.csv").write_text("time_s,state\n0.0,lost\n")
     with pytest.raises(LaneFinderError, match="row 1 has no frame number"):
         Review(tmp_path / "h.mp4")
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_a_review_cleanly(tmp_path):
+    import signal
+
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    assert subprocess.run([sys.executable, "-m", "lanefinder", "video", str(tmp_path / "h.mp4"), "--telemetry",
+                           str(tmp_path / "h.csv"), "--end", "0.5", "--quiet"], timeout=120).returncode == 0
+    p = subprocess.Popen([sys.executable, "-m", "lanefinder", "review", str(tmp_path / "h.mp4"), "--port", "0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        url = p.stdout.readline().split()[-4]  # "... http://127.0.0.1:PORT/  (Ctrl-C to stop)"
+        deadline = time.time() + 30
+        while time.time() < deadline:  # until it answers
+            with contextlib.suppress(OSError):
+                urllib.request.urlopen(url, timeout=2).close()
+                break
+            time.sleep(0.1)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=30)
+    finally:
+        p.kill()
+    assert p.returncode == 0 and "review stopped" in out and not err.strip(), (p.returncode, out, err)

@@ -441,7 +441,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
                         dash_period_m=dash_period_m)
     if video_path:
         if not Path(video_path).is_file():
-            raise LaneFinderError(f"video not found: {video_path}")
+            raise LaneFinderError(f"{'not a file' if Path(video_path).exists() else 'video not found'}: {video_path}")
         click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, opts)
         if not images:

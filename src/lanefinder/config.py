@@ -48,14 +48,14 @@ __all__ = [
 ]
 
 Point = tuple[float, float]
-PositiveInt = Annotated[int, Field(gt=0)]
-PositiveFloat = Annotated[float, Field(gt=0)]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 Byte = Annotated[int, Field(ge=0, le=255)]
 #: A frame's width or height, pixels (16K video at most).
 FrameSide = Annotated[int, Field(ge=16, le=16384)]
 #: A bird's-eye view's width or height, pixels.
 ViewSide = Annotated[int, Field(ge=16, le=8192)]
+#: The finest step of ``search.heading_step_deg`` (other than 0, off), degrees.
+MIN_HEADING_STEP_DEG = 0.5
 
 #: Lane width the default set-up is scaled by: 3.7 m between line centres (12 ft lanes).
 LANE_WIDTH_M = 3.7
@@ -322,16 +322,16 @@ class RidgeConfig(_Section):
     0.4
     """
 
-    width_m: PositiveFloat = 0.4
+    width_m: Annotated[float, Field(gt=0, le=2)] = 0.4
     min_contrast: Byte = 12
-    rel_contrast: Annotated[float, Field(ge=0)] = 0.18
+    rel_contrast: Annotated[float, Field(ge=0, le=5)] = 0.18
     rel_contrast_max: Byte = 255
     faint_contrast_max: Byte = 16
     faint_confidence: Fraction = 0.4
     yellow_min_contrast: Byte = 18
     yellow_min: Byte = 30
     noise_factor: Annotated[float, Field(ge=0, le=20)] = 5.0
-    noise_patch_m: PositiveFloat = 1.5
+    noise_patch_m: Annotated[float, Field(gt=0, le=10)] = 1.5
 
 
 class ThresholdConfig(_Section):
@@ -434,27 +434,28 @@ class SearchConfig(_Section):
 
     method: Literal["windows", "segments"] = "windows"
     n_windows: Annotated[int, Field(ge=2, le=100)] = 12
-    margin_m: PositiveFloat = 0.6
-    min_window_marking_m: PositiveFloat = 0.2
+    margin_m: Annotated[float, Field(gt=0, le=5)] = 0.6
+    min_window_marking_m: Annotated[float, Field(gt=0, le=10)] = 0.2
     histogram_fraction: Annotated[float, Field(gt=0, le=1)] = 0.5
-    around_margin_m: PositiveFloat = 0.45
-    lane_width_m: PositiveFloat = LANE_WIDTH_M
+    around_margin_m: Annotated[float, Field(gt=0, le=5)] = 0.45
+    lane_width_m: Annotated[float, Field(ge=1, le=10)] = LANE_WIDTH_M
     width_tolerance: Annotated[float, Field(gt=0, lt=1)] = 0.22
-    marking_width_m: PositiveFloat = 0.15
+    marking_width_m: Annotated[float, Field(gt=0, le=1)] = 0.15
     # When the straight-ahead search finds weak lines, lines heading up to this many degrees off
-    # the car's axis are tried too, every ``heading_step_deg`` (0 turns that search off).
+    # the car's axis are tried too, every ``heading_step_deg`` (0 turns that search off; a
+    # finer step than MIN_HEADING_STEP_DEG would only multiply the work).
     max_heading_deg: Annotated[float, Field(ge=0, lt=80)] = 25.0
     heading_step_deg: Annotated[float, Field(ge=0, le=45)] = 5.0
     # Each window of that angled search keeps only the pixels within this distance of its
     # strongest ridge, so clutter beside a slanted line stays out of its fit (0 keeps them all).
-    heading_band_m: Annotated[float, Field(ge=0)] = 0.3
+    heading_band_m: Annotated[float, Field(ge=0, le=5)] = 0.3
     # Line bases: the base histogram counts rows above the lower ``histogram_fraction`` with this
     # weight (a line with a gap at the bottom still gets a base), is smoothed over
     # ``peak_smoothing_m``, and its ``max_peaks`` highest peaks of at least ``base_min_fraction``
     # of a window's pixels are paired; a pair off-centre by a lane width loses
     # ``centre_preference`` of its score.
     upper_histogram_weight: Fraction = 0.5
-    peak_smoothing_m: PositiveFloat = 0.22
+    peak_smoothing_m: Annotated[float, Field(gt=0, le=5)] = 0.22
     max_peaks: Annotated[int, Field(ge=1, le=64)] = 8
     base_min_fraction: Fraction = 0.25
     centre_preference: Fraction = 0.3
@@ -475,10 +476,16 @@ class SearchConfig(_Section):
     # peak may lie ``segment_max_shift`` margins from where the line is heading, and keeps the
     # pixels within ``segment_band`` of a margin of it; a segment needs ``segment_min_fraction``
     # of a window's pixels.
-    segment_reach: PositiveFloat = 2.0
-    segment_max_shift: PositiveFloat = 1.5
+    segment_reach: Annotated[float, Field(gt=0, le=20)] = 2.0
+    segment_max_shift: Annotated[float, Field(gt=0, le=20)] = 1.5
     segment_band: Fraction = 0.5
     segment_min_fraction: Fraction = 0.5
+
+    @model_validator(mode="after")
+    def _check_heading_step(self) -> SearchConfig:
+        if 0 < self.heading_step_deg < MIN_HEADING_STEP_DEG:
+            raise ValueError(f"heading_step_deg must be 0 (off) or at least {MIN_HEADING_STEP_DEG} degrees")
+        return self
 
 
 class FitConfig(_Section):
@@ -529,21 +536,21 @@ class FitConfig(_Section):
     """
 
     robust_iterations: Annotated[int, Field(ge=0, le=10)] = 2
-    huber_m: PositiveFloat = 0.06
-    min_marking_m: PositiveFloat = 0.5
-    full_support_m: PositiveFloat = 1.9
-    residual_scale_m: PositiveFloat = 0.09
+    huber_m: Annotated[float, Field(gt=0, le=2)] = 0.06
+    min_marking_m: Annotated[float, Field(gt=0, le=100)] = 0.5
+    full_support_m: Annotated[float, Field(gt=0, le=100)] = 1.9
+    residual_scale_m: Annotated[float, Field(gt=0, le=5)] = 0.09
     min_span_fraction: Fraction = 0.25
     parallel: Fraction = 1.0
     # Span of the view (fraction of its height) a line must cover for full confidence.
     full_span_fraction: Annotated[float, Field(gt=0, le=1)] = 0.6
     # A line with more pixels is fitted on an even subsample of this many (bounds the cost).
     max_points: Annotated[int, Field(ge=10, le=100000)] = 1200
-    band_m: PositiveFloat = 1.0
+    band_m: Annotated[float, Field(ge=0.05, le=100)] = 1.0
     band_min_marking_m: Annotated[float, Field(ge=0, le=10)] = 0.13
     piece_min_marking_m: Annotated[float, Field(ge=0, le=10)] = 0.5
-    max_radius_m: PositiveFloat = 10000.0
-    straight_radius_m: PositiveFloat = 3000.0
+    max_radius_m: Annotated[float, Field(gt=0, le=1e7)] = 10000.0
+    straight_radius_m: Annotated[float, Field(gt=0, le=1e7)] = 3000.0
 
     @model_validator(mode="after")
     def _check_band(self) -> FitConfig:
@@ -628,26 +635,26 @@ class TrackingConfig(_Section):
     5
     """
 
-    min_width_m: PositiveFloat = 2.5
+    min_width_m: Annotated[float, Field(gt=0, le=10)] = 2.5
     # 3.7 m lanes measure up to 4.7 m for a frame when the car pitches on a bump (the flat-road
     # bird's-eye view then stretches them), as at 22.4 s of the project video.
-    max_width_m: PositiveFloat = 4.8
-    max_width_change_m: PositiveFloat = 0.7
-    max_parallel_diff_m: PositiveFloat = 0.9
-    max_curvature_diff: PositiveFloat = 0.004
-    max_offset_jump_m: PositiveFloat = 0.4
+    max_width_m: Annotated[float, Field(gt=0, le=20)] = 4.8
+    max_width_change_m: Annotated[float, Field(gt=0, le=10)] = 0.7
+    max_parallel_diff_m: Annotated[float, Field(gt=0, le=20)] = 0.9
+    max_curvature_diff: Annotated[float, Field(gt=0, le=1)] = 0.004
+    max_offset_jump_m: Annotated[float, Field(gt=0, le=10)] = 0.4
     # The jump limit at the far end of the view, as a multiple of ``max_offset_jump_m``.
-    far_jump_factor: PositiveFloat = 3.0
-    max_offset_m: PositiveFloat = 0.9
-    max_misses: PositiveInt = 5
-    lost_after: PositiveInt = 12
-    hold_gentle_frames: PositiveInt = 25
-    reference_fps: PositiveFloat = 25.0
-    hold_gentle_radius_m: Annotated[float, Field(ge=0)] = 150.0
-    max_one_line_frames: PositiveInt = 50
+    far_jump_factor: Annotated[float, Field(gt=0, le=100)] = 3.0
+    max_offset_m: Annotated[float, Field(gt=0, le=10)] = 0.9
+    max_misses: Annotated[int, Field(gt=0, le=100_000)] = 5
+    lost_after: Annotated[int, Field(gt=0, le=100_000)] = 12
+    hold_gentle_frames: Annotated[int, Field(gt=0, le=100_000)] = 25
+    reference_fps: Annotated[float, Field(ge=1, le=1000)] = 25.0
+    hold_gentle_radius_m: Annotated[float, Field(ge=0, le=1e7)] = 150.0
+    max_one_line_frames: Annotated[int, Field(gt=0, le=100_000)] = 50
     min_start_confidence: Fraction = 0.45
     still_start_confidence: Fraction = 0.3
-    start_frames: PositiveInt = 3
+    start_frames: Annotated[int, Field(gt=0, le=100_000)] = 3
     weak_start_confidence: Fraction = 0.3
     weak_start_frames: Annotated[int, Field(ge=0, le=10_000)] = 5
     # No marking down the middle: set pixels in the middle half of a candidate lane, binned in
@@ -655,10 +662,10 @@ class TrackingConfig(_Section):
     # a strip filled on more than ``max_interior_fill`` of at least ``interior_min_rows`` rows,
     # and on ``interior_excess`` more of them than the median strip, is a marking.
     max_interior_fill: Fraction = 0.6
-    interior_strip_m: PositiveFloat = 0.2
+    interior_strip_m: Annotated[float, Field(ge=0.02, le=5)] = 0.2
     interior_excess: Fraction = 0.4
-    interior_min_pixels: PositiveInt = 2
-    interior_min_rows: PositiveInt = 10
+    interior_min_pixels: Annotated[int, Field(gt=0, le=1_000_000)] = 2
+    interior_min_rows: Annotated[int, Field(gt=0, le=100_000)] = 10
     # Smoothing of the metre fits: the gain is (1 - smoothing) * (f + (1 - f) * confidence), with
     # f = ``smoothing_conf_floor``, plus ``smoothing_fast_gain`` times the change at the far end
     # relative to the jump limit (so bends are followed without lag), at least
@@ -935,7 +942,7 @@ class SelfCalConfig(_Section):
     dash_period_m: Annotated[float, Field(ge=1, le=50)] = 12.2
     skip_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
     stills: bool = True
-    still_height_m: tuple[PositiveFloat, PositiveFloat] = (1.0, 1.8)
+    still_height_m: tuple[Annotated[float, Field(gt=0, le=20)], Annotated[float, Field(gt=0, le=20)]] = (1.0, 1.8)
     still_max_car_m: Annotated[float, Field(ge=0, le=5)] = 0.5
     still_min_radius_m: Annotated[float, Field(ge=0, le=1_000_000)] = 0.0
     still_work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
@@ -944,8 +951,8 @@ class SelfCalConfig(_Section):
     still_lines: bool = True
     first_frame: bool = True
     unsure_parallel: Fraction = 0.0
-    unsure_parallel_diff_m: PositiveFloat = 5.0
-    unsure_curvature_diff: PositiveFloat = 0.008
+    unsure_parallel_diff_m: Annotated[float, Field(gt=0, le=20)] = 5.0
+    unsure_curvature_diff: Annotated[float, Field(gt=0, le=1)] = 0.008
     unsure_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
 
     @model_validator(mode="after")

@@ -15,7 +15,6 @@ rule for rule:
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LaneFinderError
+from .io import json_lines
 
 __all__ = [
     "BANDS_M",
@@ -273,8 +273,8 @@ def _read_jsonl(path: Path) -> list[dict]:
     if not path.is_file():
         raise LaneFinderError(f"not found: {path}")
     try:
-        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        return json_lines(path.read_text(), path)
+    except UnicodeDecodeError as e:
         raise LaneFinderError(f"{path}: not JSON Lines ({e})") from None
     except OSError as e:
         raise LaneFinderError(f"cannot read {path}: {e.strerror or e}") from None

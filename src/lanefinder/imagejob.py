@@ -17,7 +17,8 @@ from typing import Any
 
 from .config import Config
 from .errors import LaneFinderError
-from .io import OutputSet, atomic_write_text, check_outputs, read_image, write_image
+from .io import OutputSet, atomic_write_text, check_outputs, image_size, read_image, write_image
+from .limits import check_memory
 from .pipeline import LaneFinder
 from .render import annotate
 from .stages import write_stages
@@ -141,6 +142,9 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
         for p, name in zip(paths, names, strict=True):
             dest = out / name
             try:  # an image that cannot be read or served is reported, and the others go on
+                size = image_size(p)  # an image too large for the memory budget is refused before decoding
+                if size is not None:
+                    check_memory(finder.config, size)
                 frame = read_image(p)
                 t0 = time.perf_counter()
                 result = finder.process_still(frame)

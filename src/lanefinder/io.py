@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import tempfile
@@ -23,6 +24,8 @@ __all__ = [
     "check_not_input",
     "check_outputs",
     "encode_image",
+    "image_size",
+    "json_lines",
     "list_images",
     "partial_name",
     "publish",
@@ -40,7 +43,10 @@ def read_image(path: str | Path) -> np.ndarray:
     Parameters
     ----------
     path : str or Path
-        Any format OpenCV decodes; the path may hold any characters.
+        Any format OpenCV decodes; the path may hold any characters.  An image larger than
+        OpenCV's decoding limit (``OPENCV_IO_MAX_IMAGE_PIXELS``, which importing
+        :mod:`lanefinder` sets to 16384 x 16384, the largest frame side, unless it is set
+        already) is refused by OpenCV before it allocates it (see also :func:`image_size`).
 
     Returns
     -------
@@ -50,7 +56,7 @@ def read_image(path: str | Path) -> np.ndarray:
     Raises
     ------
     LaneFinderError
-        When the file is missing, is a folder, or does not decode as an image.
+        When the file is missing, is a folder, does not decode as an image, or is too large.
 
     Examples
     --------
@@ -67,11 +73,93 @@ def read_image(path: str | Path) -> np.ndarray:
     if not p.is_file():
         raise LaneFinderError(f"not a file: {p}")
     data = np.fromfile(p, dtype=np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    except cv2.error as e:  # OpenCV refuses, before allocating, an image over its decoding limit
+        if "CV_IO_MAX_IMAGE_PIXELS" in str(e):
+            raise LaneFinderError(f"image too large to decode (over {_max_pixels()} pixels): {p}") from None
+        raise LaneFinderError(f"cannot read image (unsupported or damaged file): {p}") from None
     if image is None:
         raise LaneFinderError(f"cannot read image (unsupported or damaged file): {p}")
     return image
 
+
+def image_size(path: str | Path) -> tuple[int, int] | None:
+    """Read an image file's width and height from its header, without decoding it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The image file.
+
+    Returns
+    -------
+    tuple of int or None
+        (width, height), pixels; None when the header does not tell (FFmpeg, through PyAV,
+        reads it, and gives no size for an image larger than it can hold).
+
+    Examples
+    --------
+    >>> image_size("data/test_images/test3.jpg")
+    (1280, 720)
+    """
+    import av  # PyAV: FFmpeg reads the header alone
+
+    try:
+        with av.open(str(path)) as c:
+            cc = c.streams.video[0].codec_context
+            w, h = int(cc.width), int(cc.height)
+    except (av.error.FFmpegError, IndexError, OSError, ValueError):
+        return None
+    return (w, h) if w > 0 and h > 0 else None
+
+
+def _max_pixels() -> str:
+    """OpenCV's decoding limit in use, as set in the environment (for messages)."""
+    return os.environ.get("OPENCV_IO_MAX_IMAGE_PIXELS", str(2**30))
+
+
+def json_lines(text: str, path: str | Path) -> list:
+    r"""Parse JSON Lines text, one value per non-blank line, saying which line is not JSON.
+
+    Parameters
+    ----------
+    text : str
+        The file's text.
+    path : str or Path
+        The file, for the message.
+
+    Returns
+    -------
+    list
+        The values, in order.
+
+    Raises
+    ------
+    LaneFinderError
+        At the first line that is not JSON: its line number in the file, and why.
+
+    Examples
+    --------
+    >>> json_lines('{"a": 1}\n\n[2]\n', "x.jsonl")
+    [{'a': 1}, [2]]
+    >>> json_lines('{"a": 1}\n{"b": ', "x.jsonl")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: x.jsonl: not JSON Lines (line 2, cut short?: Expecting value, column 7)
+    """
+    out = []
+    lines = text.splitlines()
+    for n, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError as e:
+            # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
+            short = ", cut short?" if n == len(lines) and not text.endswith("\n") else ""
+            raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
+    return out
 
 def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path]:
     """Expand files and folders into image paths.

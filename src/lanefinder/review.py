@@ -869,7 +869,8 @@ def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print)
     port : int
         The port (0: any free port).
     echo : callable
-        Where the address (and a warning for a non-local host) is printed.
+        Where the address (and a warning for a non-local host) is printed, and ``review
+        stopped`` when Ctrl-C stops it (a normal end: ``lanefinder review`` then exits 0).
 
     Raises
     ------
@@ -904,8 +905,10 @@ def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print)
     echo(f"lanefinder review of {review.path} ({review.mode}, {n} video{'s' if n != 1 else ''}): "
          f"http://{'[' + host + ']' if ':' in host else host}:{shown}/  (Ctrl-C to stop)")
     hosts = None if host in ("127.0.0.1", "localhost", "::1") else ("*",)
-    config = uvicorn.Config(create_app(review, hosts), log_level="warning")
-    uvicorn.Server(config).run(sockets=[sock])
+    try:
+        uvicorn.Server(uvicorn.Config(create_app(review, hosts), log_level="warning")).run(sockets=[sock])
+    except KeyboardInterrupt:  # Ctrl-C is how a review is stopped: uvicorn shuts down, then passes it on
+        echo("review stopped")
 
 
 def load_review(path: str | Path, config_path: str | Path | None = None,

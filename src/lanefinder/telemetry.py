@@ -36,7 +36,7 @@ from .config import FarConfig
 from .errors import LaneFinderError
 from .farfield import far_rows, row_confidence
 from .geometry import poly_x
-from .io import OutputSet
+from .io import OutputSet, json_lines
 from .lane import SIDES, LaneResult, Line
 from .threshold import BLOWN_OUT_LEVEL, blown_out
 
@@ -627,10 +627,15 @@ def _read_text_rows(p: Path) -> list:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
+            raw = list(csv.DictReader(io.StringIO(text)))
+            for i, row in enumerate(raw, 1):
+                if None in row.values():  # (an empty value is "", a missing one None)
+                    raise LaneFinderError(f"{p}: row {i} has fewer values than the header")
             rows = [{k: _parse_csv_value(k, v) if isinstance(k, str) and isinstance(v, str) else v
-                     for k, v in row.items()} for row in csv.DictReader(io.StringIO(text))]
+                     for k, v in row.items()} for row in raw]
         else:
-            rows = [json.loads(line) for line in text.splitlines() if line.strip()]
-    except (ValueError, json.JSONDecodeError) as e:
+            rows = json_lines(text, p)
+    except ValueError as e:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     return rows
+

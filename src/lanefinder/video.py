@@ -96,7 +96,7 @@ _IMAGE_FORMATS = ("image2", "png_pipe", "jpeg_pipe", "bmp_pipe", "tiff_pipe", "w
 def _open(path: str | Path):
     p = Path(path)
     if not p.is_file():
-        raise LaneFinderError(f"video not found: {p}")
+        raise LaneFinderError(f"{'not a file' if p.exists() else 'video not found'}: {p}")
     try:
         c = av.open(str(p))
     except (av.error.FFmpegError, OSError, UnicodeDecodeError, ValueError) as e:
