@@ -520,24 +520,38 @@ def test_partial_names_are_checked_before_any_work(tmp_path):
 
 
 # -- every number of the config is bounded, and its bounds run in bounded time -----------------
-def _numbers(model: object, prefix: str = ""):
-    """Each numeric field of a config section (recursively): its path, value and bounds."""
-    from typing import Literal, get_origin
+def _bounds(annotation: object, metadata: list) -> list[tuple[object, object]]:
+    """The (lower, upper) bounds of each number an annotation holds (tuples: each element's)."""
+    from typing import Annotated, Literal, get_args, get_origin
 
     from annotated_types import Ge, Gt, Le, Lt
 
+    if get_origin(annotation) is Literal:
+        return []  # a choice among listed values is bounded by its list
+    if get_origin(annotation) is Annotated:
+        inner, *more = get_args(annotation)
+        return _bounds(inner, [*metadata, *(m for x in more for m in getattr(x, "metadata", [x]))])
+    if get_origin(annotation) is tuple:
+        return [b for arg in get_args(annotation) for b in _bounds(arg, [])]
+    if annotation not in (int, float):
+        return []
+    lo = hi = None
+    for m in metadata:
+        lo = m.gt if isinstance(m, Gt) else m.ge if isinstance(m, Ge) else lo
+        hi = m.lt if isinstance(m, Lt) else m.le if isinstance(m, Le) else hi
+    return [(lo, hi)]
+
+
+def _numbers(model: object, prefix: str = ""):
+    """Each numeric field of a config section (recursively): its path, value and the bounds of its numbers."""
     for name, field in type(model).model_fields.items():
         value = getattr(model, name)
         if hasattr(type(value), "model_fields"):
             yield from _numbers(value, f"{prefix}{name}.")
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or get_origin(field.annotation) is Literal:
-            continue  # (a choice among listed values is bounded by its list)
-        lo = hi = None
-        for m in field.metadata:
-            lo = m.gt if isinstance(m, Gt) else m.ge if isinstance(m, Ge) else lo
-            hi = m.lt if isinstance(m, Lt) else m.le if isinstance(m, Le) else hi
-        yield f"{prefix}{name}", value, lo, hi
+        bounds = _bounds(field.annotation, list(field.metadata))
+        if bounds:
+            yield f"{prefix}{name}", value, bounds
 
 
 def _with(path: str, value: float) -> dict:
@@ -551,13 +565,16 @@ def _with(path: str, value: float) -> dict:
 
 
 NUMBERS = list(_numbers(config_from_dict({}, "defaults")))
+#: The single numbers, with their bounds, that the bounded-time test sets.
+SCALARS = [(p, v, *b[0]) for p, v, b in NUMBERS if isinstance(v, (int, float)) and not isinstance(v, bool)]
 
 
 def test_every_number_of_the_config_is_bounded_both_ways():
     # An unbounded size once hung a run (threshold.ridge.width_m = 1e6: a window a kilometre wide)
     # or overflowed (search.margin_m = 1e308); a tiny step multiplied the work (heading_step_deg).
-    unbounded = [p for p, _, lo, hi in NUMBERS if lo is None or hi is None]
+    unbounded = [p for p, _, bounds in NUMBERS if any(lo is None or hi is None for lo, hi in bounds)]
     assert not unbounded, f"config numbers without both bounds: {unbounded}"
+    assert len(SCALARS) > 130 and any(p == "birdseye.src" for p, _, _ in NUMBERS)  # the walk sees them all
 
 
 @pytest.mark.parametrize(("path", "value"), [("search.heading_step_deg", 1e-9), ("threshold.ridge.width_m", 1e6),
@@ -572,7 +589,7 @@ def test_values_that_hung_or_crashed_a_run_are_refused(path, value):
 def test_every_config_number_at_its_bounds_runs_in_bounded_time():
     frame = cv2.resize(cv2.imread(str(TEST_IMAGES / "test3.jpg")), (640, 360))
     slow = []
-    for path, value, lo, hi in NUMBERS:
+    for path, value, lo, hi in SCALARS:
         for bound in (lo, hi):
             v = type(value)(bound) if isinstance(value, int) else float(bound)
             step = 1 if isinstance(value, int) else 1e-6 * max(1.0, abs(v))
@@ -596,15 +613,19 @@ def test_every_config_number_at_its_bounds_runs_in_bounded_time():
     assert not slow, f"settings that run for over 5 s on four small frames: {slow}"
 
 
-def test_an_image_too_large_to_decode_is_one_clear_line(tmp_path):
-    from lanefinder.io import read_image
+@pytest.mark.parametrize("side", [17000, 60000])
+def test_an_image_too_large_to_decode_is_one_clear_line_before_it_is_decoded(tmp_path, monkeypatch, side):
+    # (cv2 is imported before lanefinder here, as in many notebooks: OpenCV's own limit, 2**30
+    # pixels, would let 17000 x 17000 through)
+    from lanefinder import io
 
     data = bytearray((TEST_IMAGES / "test1.jpg").read_bytes())
     sof = next(i for i in range(len(data) - 9) if data[i] == 0xFF and data[i + 1] in (0xC0, 0xC2))
-    data[sof + 5:sof + 9] = (60000).to_bytes(2, "big") * 2  # the header claims 60000 x 60000
+    data[sof + 5:sof + 9] = side.to_bytes(2, "big") * 2  # the header claims side x side
     (tmp_path / "huge.jpg").write_bytes(bytes(data))
+    monkeypatch.setattr(io.cv2, "imdecode", lambda *a: pytest.fail("decoded"))
     with pytest.raises(LaneFinderError, match="too large to decode"):
-        read_image(tmp_path / "huge.jpg")
+        io.read_image(tmp_path / "huge.jpg")
 
 
 def test_an_image_over_the_memory_budget_is_refused_before_it_is_decoded(tmp_path, monkeypatch):
@@ -625,6 +646,10 @@ def test_a_line_cut_short_is_named_by_its_line_number(tmp_path):
         read_telemetry(path)
     with pytest.raises(LaneFinderError, match=r"not JSON Lines \(line 2"):
         read_ground_truth(path)
+    from lanefinder.events import read_events
+
+    with pytest.raises(LaneFinderError, match=r"line 2, cut short"):
+        read_events(path)
 
 
 def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):

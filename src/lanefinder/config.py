@@ -47,7 +47,9 @@ __all__ = [
     "load_config",
 ]
 
-Point = tuple[float, float]
+#: A point, pixels (of a frame or a view; well outside one is allowed, not without bound).
+Coordinate = Annotated[float, Field(ge=-1e5, le=1e5)]
+Point = tuple[Coordinate, Coordinate]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 Byte = Annotated[int, Field(ge=0, le=255)]
 #: A frame's width or height, pixels (16K video at most).
@@ -234,7 +236,8 @@ class SobelHlsConfig(_Section):
     x_thresh: tuple[Byte, Byte] = (20, 255)
     y_thresh: tuple[Byte, Byte] = (25, 255)
     mag_thresh: tuple[Byte, Byte] = (30, 255)
-    dir_thresh: tuple[float, float] = (0.0, 0.9)
+    dir_thresh: tuple[Annotated[float, Field(ge=0, le=math.pi / 2)], Annotated[float, Field(ge=0, le=math.pi / 2)]] = (
+        0.0, 0.9)
     s_thresh: tuple[Byte, Byte] = (150, 255)
 
 

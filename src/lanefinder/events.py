@@ -70,7 +70,7 @@ import numpy as np
 
 from .config import EventsConfig
 from .errors import LaneFinderError
-from .io import OutputSet, atomic_path, atomic_write_text
+from .io import OutputSet, atomic_path, atomic_write_text, json_lines
 
 __all__ = [
     "EVENT_FIELDS",
@@ -581,9 +581,11 @@ def read_events(path: str | Path) -> list[dict[str, Any]]:
 
             rows = pq.read_table(p).to_pylist()
         elif suffix == ".jsonl":
-            rows = [json.loads(line) for line in p.read_text().splitlines() if line.strip()]
+            rows = json_lines(p.read_text(), p)
         else:
             rows = list(csv.DictReader(io.StringIO(p.read_text())))
+    except LaneFinderError:
+        raise
     except Exception as e:  # the readers' own errors, in one line
         raise LaneFinderError(f"{p}: not an events file ({e})".splitlines()[0]) from None
     out = []

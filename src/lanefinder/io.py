@@ -8,6 +8,7 @@ import os
 import signal
 import tempfile
 import threading
+import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from .errors import LaneFinderError
 
 __all__ = [
     "IMAGE_SUFFIXES",
+    "MAX_IMAGE_PIXELS",
     "OutputSet",
     "atomic_path",
     "atomic_write_text",
@@ -37,16 +39,19 @@ __all__ = [
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 
 
+#: The most pixels an image may have to be decoded: the largest frame taken (``config.FrameSide``).
+MAX_IMAGE_PIXELS = 16384 * 16384
+
+
 def read_image(path: str | Path) -> np.ndarray:
     """Read a BGR uint8 image, or raise LaneFinderError saying why not.
 
     Parameters
     ----------
     path : str or Path
-        Any format OpenCV decodes; the path may hold any characters.  An image larger than
-        OpenCV's decoding limit (``OPENCV_IO_MAX_IMAGE_PIXELS``, which importing
-        :mod:`lanefinder` sets to 16384 x 16384, the largest frame side, unless it is set
-        already) is refused by OpenCV before it allocates it (see also :func:`image_size`).
+        Any format OpenCV decodes; the path may hold any characters.  An image whose header
+        (:func:`image_size`) gives more than ``MAX_IMAGE_PIXELS`` pixels is refused before it
+        is decoded.
 
     Returns
     -------
@@ -72,12 +77,15 @@ def read_image(path: str | Path) -> np.ndarray:
         raise LaneFinderError(f"image not found: {p}")
     if not p.is_file():
         raise LaneFinderError(f"not a file: {p}")
+    size = image_size(p)
+    if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
+        raise LaneFinderError(f"image too large to decode: {p} is {size[0]}x{size[1]}, over 16384x16384 pixels")
     data = np.fromfile(p, dtype=np.uint8)
     try:
         image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
-    except cv2.error as e:  # OpenCV refuses, before allocating, an image over its decoding limit
+    except cv2.error as e:  # OpenCV refuses, before allocating, an image over its own decoding limit
         if "CV_IO_MAX_IMAGE_PIXELS" in str(e):
-            raise LaneFinderError(f"image too large to decode (over {_max_pixels()} pixels): {p}") from None
+            raise LaneFinderError(f"image too large to decode: {p}") from None
         raise LaneFinderError(f"cannot read image (unsupported or damaged file): {p}") from None
     if image is None:
         raise LaneFinderError(f"cannot read image (unsupported or damaged file): {p}")
@@ -95,28 +103,33 @@ def image_size(path: str | Path) -> tuple[int, int] | None:
     Returns
     -------
     tuple of int or None
-        (width, height), pixels; None when the header does not tell (FFmpeg, through PyAV,
-        reads it, and gives no size for an image larger than it can hold).
+        (width, height), pixels (Pillow reads the header alone); None when Pillow does not
+        know the format or cannot read the header.
+
+    Raises
+    ------
+    LaneFinderError
+        When the header gives more pixels than Pillow takes as an image (about 179 million:
+        ``PIL.Image.MAX_IMAGE_PIXELS`` twice), far over any frame's.
 
     Examples
     --------
     >>> image_size("data/test_images/test3.jpg")
     (1280, 720)
     """
-    import av  # PyAV: FFmpeg reads the header alone
+    from PIL import Image, UnidentifiedImageError
 
     try:
-        with av.open(str(path)) as c:
-            cc = c.streams.video[0].codec_context
-            w, h = int(cc.width), int(cc.height)
-    except (av.error.FFmpegError, IndexError, OSError, ValueError):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                w, h = im.size
+    except Image.DecompressionBombError:
+        raise LaneFinderError(f"image too large to decode: {path} (its header gives over "
+                              f"{2 * (Image.MAX_IMAGE_PIXELS or 0)} pixels)") from None
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
         return None
-    return (w, h) if w > 0 and h > 0 else None
-
-
-def _max_pixels() -> str:
-    """OpenCV's decoding limit in use, as set in the environment (for messages)."""
-    return os.environ.get("OPENCV_IO_MAX_IMAGE_PIXELS", str(2**30))
+    return (int(w), int(h)) if w > 0 and h > 0 else None
 
 
 def json_lines(text: str, path: str | Path) -> list:
@@ -149,7 +162,9 @@ def json_lines(text: str, path: str | Path) -> list:
     lanefinder.errors.LaneFinderError: x.jsonl: not JSON Lines (line 2, cut short?: Expecting value, column 7)
     """
     out = []
-    lines = text.splitlines()
+    lines = text.removeprefix("\ufeff").split("\n")  # (not splitlines: JSON strings may hold U+2028)
+    while lines and not lines[-1].strip():
+        lines.pop()
     for n, line in enumerate(lines, 1):
         if not line.strip():
             continue
@@ -157,9 +172,10 @@ def json_lines(text: str, path: str | Path) -> list:
             out.append(json.loads(line))
         except json.JSONDecodeError as e:
             # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
-            short = ", cut short?" if n == len(lines) and not text.endswith("\n") else ""
+            short = ", cut short?" if n == len(lines) and not text.rstrip(" \t").endswith("\n") else ""
             raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
     return out
+
 
 def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path]:
     """Expand files and folders into image paths.

@@ -638,4 +638,3 @@ def _read_text_rows(p: Path) -> list:
     except ValueError as e:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     return rows
-
