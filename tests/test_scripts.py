@@ -24,3 +24,17 @@ def test_eval_synthetic_refuses_a_lens_it_cannot_render(tmp_path, args, says):
     assert p.returncode == 2
     assert says in p.stderr and "Traceback" not in p.stderr
     assert not any(tmp_path.iterdir())  # nothing rendered
+
+
+@pytest.mark.parametrize(("setup", "says"), [("none", "run `make stills` first"), ("bad", "run `make stills` first"),
+                                             ("exists", "exists: give a new folder")])
+def test_stills_pairs_refuses_a_missing_report_or_an_existing_folder(tmp_path, setup, says):
+    report, out = tmp_path / "report.json", tmp_path / "pairs"
+    if setup == "bad":
+        report.write_text('{"project_video": 3}')
+    if setup == "exists":
+        out.mkdir()
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "stills_pairs.py"), "--report", str(report),
+                        "--out", str(out)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr
+    assert out.exists() == (setup == "exists") and len(list(tmp_path.iterdir())) == (setup != "none")
