@@ -657,3 +657,19 @@ def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):
     (tmp_path / "t.csv").write_text("frame,time_s,state,offset_m\n0,0.0,lost,\n1,2\n")
     with pytest.raises(LaneFinderError, match="row 2 has fewer values than the header"):
         read_telemetry(tmp_path / "t.csv")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("after_s", [0.15, 0.3, 0.6])
+def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):
+    # (importing lanefinder once loaded OpenCV and NumPy first: a Ctrl-C in its first 0.3 s printed
+    # a 24-line traceback from the imports; they now load inside the command)
+    proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(CLIP), "-o", str(tmp_path / "o.mp4"),
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(after_s)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    # Before the run starts: one error line; once frames flow: the partial outputs, said on stdout.
+    assert proc.returncode == 130 and "Traceback" not in err, err
+    assert err.strip() in ("lanefinder: error: interrupted", "") and (err.strip() or "interrupted:" in out), (out, err)
+    assert not list(tmp_path.glob(".*"))
