@@ -7,9 +7,11 @@
 video is a reference, not the truth. For every still in the report that shows a lane and
 disagrees with the video (default set-up), this writes one PNG to --out: the lower part of the
 frame twice, panel A above panel B, one with the still's lines and one with the tracked
-video's (red: the left line, magenta: the right), in an order drawn from --seed. The order is
-written to `key.json` in the same folder: give a judge the PNGs only, ask which panel's lines
-lie on the painted markings, then read the answers against the key.
+video's (red: the left line, magenta: the right), in an order drawn from --seed. Which panel is
+which is written to `key.json` in the same folder (`{"file": {"A": "still", "B": "video"}}`):
+give a judge the PNGs only, ask which panel's lines lie on the painted markings, then read the
+answers against the key. The report must come from `make stills` on the same videos (default
+config); a still it names that the video does not hold is refused.
 
 The videos are run again with tracking, as `make stills` runs them (about 40 s). --out must not
 exist yet; it is written whole or not at all.
@@ -54,15 +56,16 @@ def _draw(image, row: dict, label: str):
 def pairs(report: dict, videos: Path, out: Path, seed: int) -> dict:
     """Write the pairs into ``out``; give the key (file name -> which panel is the still, which the video)."""
     rng = random.Random(seed)
-    key: dict[str, list[str]] = {}
+    key: dict[str, dict[str, str]] = {}
     cfg = Config()
-    for name, rep in report.items():
-        wanted = {s["frame"] for s in rep["per_still"] if s["default"]["lane"] and not s["default"]["agrees"]}
-        if not wanted:
-            continue
+    todo = {name: {s["frame"] for s in rep["per_still"] if s["default"]["lane"] and not s["default"]["agrees"]}
+            for name, rep in report.items()}
+    todo = {name: wanted for name, wanted in todo.items() if wanted}
+    for name in todo:  # every video before any work
+        if not (videos / f"{name}.mp4").is_file():
+            raise LaneFinderError(f"video not found: {videos / f'{name}.mp4'}")
+    for name, wanted in todo.items():
         src = videos / f"{name}.mp4"
-        if not src.is_file():
-            raise LaneFinderError(f"video not found: {src}")
         with tempfile.TemporaryDirectory() as tmp:
             tele = Path(tmp) / "t.jsonl"
             process_video(src, None, cfg, telemetry=tele, progress=False)
@@ -76,12 +79,17 @@ def pairs(report: dict, videos: Path, out: Path, seed: int) -> dict:
             still = lane_row(result, finder.birdseye(size), blown=BlownOut.of(f.image, h_samples(size[1])))
             order = ["still", "video"]
             rng.shuffle(order)
+            if f.index not in tracked:
+                raise LaneFinderError(f"the tracked video has no row for frame {f.index}")
             panels = [_draw(f.image, still if who == "still" else tracked[f.index], label)
                       for label, who in zip("AB", order, strict=True)]
             file = f"{name}_{f.index:04d}.png"
             if not cv2.imwrite(str(out / file), cv2.vconcat(panels)):
                 raise LaneFinderError(f"cannot write {out / file}")
-            key[file] = order
+            key[file] = dict(zip("AB", order, strict=True))
+            wanted.discard(f.index)
+        if wanted:
+            raise LaneFinderError(f"{src} holds no frame {min(wanted)}: is the report from these videos?")
     return key
 
 
@@ -97,9 +105,10 @@ def main() -> int:
             raise LaneFinderError(f"{a.out} exists: give a new folder")
         try:
             report = json.loads(a.report.read_text())
-            if not all(isinstance(v, dict) and "per_still" in v for v in report.values()):
-                raise ValueError("no per_still lists")
-        except (OSError, ValueError, AttributeError) as e:
+            if not all(isinstance(s, dict) and isinstance(s.get("frame"), int) and isinstance(s.get("default"), dict)
+                       and {"lane", "agrees"} <= set(s["default"]) for v in report.values() for s in v["per_still"]):
+                raise ValueError("its stills lack frame or default.lane/agrees")
+        except (OSError, ValueError, AttributeError, TypeError, KeyError) as e:
             raise LaneFinderError(f"cannot read the stills report {a.report} (run `make stills` first): {e}") from None
         a.out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{a.out.name}.", dir=a.out.parent))

@@ -660,16 +660,18 @@ def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("after_s", [0.15, 0.3, 0.6])
+@pytest.mark.parametrize("after_s", [0.05, 0.15, 0.3, 0.6])
 def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):
     # (importing lanefinder once loaded OpenCV and NumPy first: a Ctrl-C in its first 0.3 s printed
-    # a 24-line traceback from the imports; they now load inside the command)
+    # a 24-line traceback from the imports; they now load inside the command, and a Ctrl-C while
+    # the command line itself loads is caught by lanefinder._entry)
     proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(CLIP), "-o", str(tmp_path / "o.mp4"),
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(after_s)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
     # Before the run starts: one error line; once frames flow: the partial outputs, said on stdout.
-    assert proc.returncode == 130 and "Traceback" not in err, err
+    # (Exit status 130, or death by SIGINT after the line, which a shell shows as 130 too.)
+    assert proc.returncode in (130, -signal.SIGINT) and "Traceback" not in err, err
     assert err.strip() in ("lanefinder: error: interrupted", "") and (err.strip() or "interrupted:" in out), (out, err)
     assert not list(tmp_path.glob(".*"))

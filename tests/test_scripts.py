@@ -27,14 +27,30 @@ def test_eval_synthetic_refuses_a_lens_it_cannot_render(tmp_path, args, says):
 
 
 @pytest.mark.parametrize(("setup", "says"), [("none", "run `make stills` first"), ("bad", "run `make stills` first"),
+                                             ("no default", "run `make stills` first"),
                                              ("exists", "exists: give a new folder")])
 def test_stills_pairs_refuses_a_missing_report_or_an_existing_folder(tmp_path, setup, says):
     report, out = tmp_path / "report.json", tmp_path / "pairs"
     if setup == "bad":
         report.write_text('{"project_video": 3}')
+    if setup == "no default":
+        report.write_text('{"challenge_video": {"per_still": [{"frame": 15}]}}')
     if setup == "exists":
         out.mkdir()
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "stills_pairs.py"), "--report", str(report),
                         "--out", str(out)], capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr
     assert out.exists() == (setup == "exists") and len(list(tmp_path.iterdir())) == (setup != "none")
+
+
+def test_stills_pairs_refuses_a_report_of_other_footage(tmp_path):
+    # a still the video does not hold (frame 99999 of a 4-second clip) is refused, not passed over
+    (tmp_path / "videos").mkdir()
+    (tmp_path / "videos" / "clip.mp4").symlink_to(ROOT / "data" / "clips" / "challenge_3-7s.mp4")
+    (tmp_path / "report.json").write_text('{"clip": {"per_still": [{"frame": 99999, "default": '
+                                          '{"lane": true, "agrees": false}}]}}')
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "stills_pairs.py"), "--report",
+                        str(tmp_path / "report.json"), "--videos", str(tmp_path / "videos"), "--out",
+                        str(tmp_path / "pairs")], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "holds no frame 99999" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "pairs").exists() and not list(tmp_path.glob(".pairs*"))

@@ -6,8 +6,10 @@ line's start, where Ctrl-C must end in one line) does not wait for OpenCV and Nu
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+import importlib as _importlib
+import importlib.util as _importlib_util
+
+TYPE_CHECKING = False  # (typing is not imported: the command line starts sooner)
 
 __version__ = "0.1.1"
 
@@ -29,7 +31,7 @@ _HOMES = {"CameraModel": "camera", "calibrate": "camera", "load_camera": "camera
           "Config": "config", "load_config": "config", "LaneFinderError": "errors", "LaneResult": "lane",
           "Line": "lane", "LaneFinder": "pipeline"}
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # for type checkers: the names, as imported when used
     from .camera import CameraModel, calibrate, load_camera, save_camera
     from .config import Config, load_config
     from .errors import LaneFinderError
@@ -37,14 +39,17 @@ if TYPE_CHECKING:
     from .pipeline import LaneFinder
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     home = _HOMES.get(name)
-    if home is None:
+    if home is not None:
+        value = getattr(_importlib.import_module(f".{home}", __name__), name)
+    elif not name.startswith("_") and _importlib_util.find_spec(f"{__name__}.{name}") is not None:
+        value = _importlib.import_module(f".{name}", __name__)  # a submodule: lanefinder.search, ...
+    else:
         raise AttributeError(f"module 'lanefinder' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{home}", __name__), name)
     globals()[name] = value
     return value
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+    return sorted({*__all__, "__version__", "__doc__", "__name__", "__path__"})

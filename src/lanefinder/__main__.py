@@ -1,5 +1,5 @@
 """Run the command line as ``python -m lanefinder``."""
 
-from .cli import main
+from ._entry import main
 
 main()
