@@ -32,9 +32,10 @@ import cv2
 from lanefinder.config import Config
 from lanefinder.errors import LaneFinderError
 from lanefinder.pipeline import LaneFinder
-from lanefinder.telemetry import BlownOut, h_samples, lane_row, read_telemetry
 from lanefinder.video import frames
-from lanefinder.videojob import process_video
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling scripts, also when loaded from a file
+from stills_vs_video import still_row, tracked
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Rows of a 720-row frame shown: the road.
@@ -66,22 +67,17 @@ def pairs(report: dict, videos: Path, out: Path, seed: int) -> dict:
             raise LaneFinderError(f"video not found: {videos / f'{name}.mp4'}")
     for name, wanted in todo.items():
         src = videos / f"{name}.mp4"
-        with tempfile.TemporaryDirectory() as tmp:
-            tele = Path(tmp) / "t.jsonl"
-            process_video(src, None, cfg, telemetry=tele, progress=False)
-            tracked = {r["frame"]: r for r in read_telemetry(tele)}
+        reference = tracked(src, cfg)
         finder = LaneFinder(cfg)
         for f in frames(src):
             if f.index not in wanted:
                 continue
-            result = finder.process_still(f.image)
-            size = (f.image.shape[1], f.image.shape[0])
-            still = lane_row(result, finder.birdseye(size), blown=BlownOut.of(f.image, h_samples(size[1])))
+            _, still = still_row(finder, f.image)  # as `make stills` scores it
             order = ["still", "video"]
             rng.shuffle(order)
-            if f.index not in tracked:
+            if f.index not in reference:
                 raise LaneFinderError(f"the tracked video has no row for frame {f.index}")
-            panels = [_draw(f.image, still if who == "still" else tracked[f.index], label)
+            panels = [_draw(f.image, still if who == "still" else reference[f.index], label)
                       for label, who in zip("AB", order, strict=True)]
             file = f"{name}_{f.index:04d}.png"
             if not cv2.imwrite(str(out / file), cv2.vconcat(panels)):

@@ -52,11 +52,25 @@ def own_setup(src: Path, cfg: Config) -> Config:
     return cfg.model_copy(update={"camera": own.camera, "birdseye": own.birdseye})
 
 
-def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
-    """Find one still blind: whether it has a lane, whether it agrees, its accuracy, set-up and checks."""
+def tracked(src: Path, cfg: Config) -> dict[int, dict]:
+    """The tracked video's telemetry rows by frame (the reference), run telemetry only."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tele = Path(tmp) / "t.jsonl"
+        process_video(src, None, cfg, telemetry=tele, progress=False)
+        return {r["frame"]: r for r in read_telemetry(tele)}
+
+
+def still_row(finder: LaneFinder, image):
+    """Find one still blind; give its result and its row, as `lanefinder image` writes it."""
     result = finder.process_still(image)
     row = lane_row(result, finder.birdseye((image.shape[1], image.shape[0])),
-                   blown=BlownOut.of(image, h_samples(image.shape[0])))  # as `lanefinder image` writes it
+                   blown=BlownOut.of(image, h_samples(image.shape[0])))
+    return result, row
+
+
+def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
+    """Find one still blind: whether it has a lane, whether it agrees, its accuracy, set-up and checks."""
+    result, row = still_row(finder, image)
     lanes = [row[k] for k in ("left_x", "right_x") if any(v >= 0 for v in row[k])]
     acc, _, fn = bench_frame(lanes, ref_lanes, ref["h_samples"])
     return {"lane": result.lane_found, "agrees": result.lane_found and fn == 0, "accuracy": acc,
@@ -65,10 +79,7 @@ def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
 
 def compare(src: Path, every_s: float, cfg: Config) -> dict:
     """Agreement of blind stills with the tracked video for one video, with both set-ups."""
-    with tempfile.TemporaryDirectory() as tmp:
-        tele = Path(tmp) / "t.jsonl"
-        process_video(src, None, cfg, telemetry=tele, progress=False)
-        tracked = {r["frame"]: r for r in read_telemetry(tele)}
+    reference = tracked(src, cfg)
     fps = float(VideoInfo.from_path(src).fps)
     step = max(1, round(every_s * fps))
     finders = {"default": LaneFinder(cfg), "own": LaneFinder(own_setup(src, cfg))}
@@ -78,7 +89,7 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
     for f in frames(src):
         if f.index % step != step // 2:
             continue
-        ref = tracked.get(f.index)
+        ref = reference.get(f.index)
         ref_lanes = [ref[k] for k in ("left_x", "right_x") if ref and any(v >= 0 for v in ref[k])]
         if ref is None or ref["state"] == "lost" or len(ref_lanes) < 2:
             no_reference += 1

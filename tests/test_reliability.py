@@ -632,7 +632,7 @@ def test_an_image_over_the_memory_budget_is_refused_before_it_is_decoded(tmp_pat
     from lanefinder import imagejob, io
 
     cv2.imwrite(str(tmp_path / "big.png"), np.zeros((3000, 4000), np.uint8))
-    monkeypatch.setattr(imagejob, "read_image", lambda p: pytest.fail("decoded"))
+    monkeypatch.setattr(io.cv2, "imdecode", lambda *a: pytest.fail("decoded"))
     assert io.image_size(tmp_path / "big.png") == (4000, 3000)
     run = imagejob.process_images([tmp_path / "big.png"], tmp_path / "out",
                                   config_from_dict({"limits": {"memory_mb": 64}}, "x"))

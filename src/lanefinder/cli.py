@@ -428,7 +428,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     from .autosetup import SetupOptions, auto_setup, preview, straight_frames_from_video
     from .camera import load_camera
     from .config import dump_config
-    from .io import OutputSet, atomic_write_text, check_outputs, list_images, read_image, write_image
+    from .io import OutputSet, atomic_write_text, check_outputs, input_file, list_images, read_image, write_image
 
     if bool(straight) == bool(video_path):
         raise LaneFinderError("give straight-road frames with --straight, or a video with --video")
@@ -440,8 +440,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     opts = SetupOptions(lane_width_m=lane_width_m, lookahead_m=lookahead_m, bottom_fraction=bottom_fraction,
                         dash_period_m=dash_period_m)
     if video_path:
-        if not Path(video_path).is_file():
-            raise LaneFinderError(f"{'not a file' if Path(video_path).exists() else 'video not found'}: {video_path}")
+        input_file(video_path, "video")
         click.echo(f"looking for straight-road frames in {video_path} ...")
         images = straight_frames_from_video(video_path, opts)
         if not images:

@@ -17,7 +17,7 @@ from typing import Any
 
 from .config import Config
 from .errors import LaneFinderError
-from .io import OutputSet, atomic_write_text, check_outputs, image_size, read_image, write_image
+from .io import OutputSet, atomic_write_text, check_outputs, read_image, write_image
 from .limits import check_memory
 from .pipeline import LaneFinder
 from .render import annotate
@@ -142,10 +142,8 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
         for p, name in zip(paths, names, strict=True):
             dest = out / name
             try:  # an image that cannot be read or served is reported, and the others go on
-                size = image_size(p)  # an image too large for the memory budget is refused before decoding
-                if size is not None:
-                    check_memory(finder.config, size)
-                frame = read_image(p)
+                # (an image too large for the memory budget is refused from its header, undecoded)
+                frame = read_image(p, check=lambda size: check_memory(finder.config, size))
                 t0 = time.perf_counter()
                 result = finder.process_still(frame)
                 ms = (time.perf_counter() - t0) * 1000

@@ -9,7 +9,7 @@ import signal
 import tempfile
 import threading
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import cv2
@@ -27,6 +27,7 @@ __all__ = [
     "check_outputs",
     "encode_image",
     "image_size",
+    "input_file",
     "json_lines",
     "list_images",
     "partial_name",
@@ -43,7 +44,40 @@ IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 MAX_IMAGE_PIXELS = 16384 * 16384
 
 
-def read_image(path: str | Path) -> np.ndarray:
+def input_file(path: str | Path, what: str) -> Path:
+    """Give an input's path, or raise LaneFinderError when it is missing or is not a file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The input.
+    what : str
+        What it is, for the message (``image``, ``video``).
+
+    Returns
+    -------
+    Path
+        The path.
+
+    Raises
+    ------
+    LaneFinderError
+        ``{what} not found: path``, or ``not a file: path`` (a folder, say).
+
+    Examples
+    --------
+    >>> input_file("data", "video")
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: not a file: data
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise LaneFinderError(f"not a file: {p}" if p.exists() else f"{what} not found: {p}")
+    return p
+
+
+def read_image(path: str | Path, check: Callable[[tuple[int, int]], None] | None = None) -> np.ndarray:
     """Read a BGR uint8 image, or raise LaneFinderError saying why not.
 
     Parameters
@@ -52,6 +86,9 @@ def read_image(path: str | Path) -> np.ndarray:
         Any format OpenCV decodes; the path may hold any characters.  An image whose header
         (:func:`image_size`) gives more than ``MAX_IMAGE_PIXELS`` pixels is refused before it
         is decoded.
+    check : callable, optional
+        Given the header's (width, height) before decoding, when the header gives one: raises
+        LaneFinderError to refuse the image (a memory budget, say).
 
     Returns
     -------
@@ -72,14 +109,12 @@ def read_image(path: str | Path) -> np.ndarray:
     ...
     lanefinder.errors.LaneFinderError: image not found: no/such.jpg
     """
-    p = Path(path)
-    if not p.exists():
-        raise LaneFinderError(f"image not found: {p}")
-    if not p.is_file():
-        raise LaneFinderError(f"not a file: {p}")
+    p = input_file(path, "image")
     size = image_size(p)
     if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
         raise LaneFinderError(f"image too large to decode: {p} is {size[0]}x{size[1]}, over 16384x16384 pixels")
+    if size is not None and check is not None:
+        check(size)
     data = np.fromfile(p, dtype=np.uint8)
     try:
         image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from .errors import LaneFinderError
-from .io import OutputSet
+from .io import OutputSet, input_file
 
 __all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames"]
 
@@ -94,9 +94,7 @@ _IMAGE_FORMATS = ("image2", "png_pipe", "jpeg_pipe", "bmp_pipe", "tiff_pipe", "w
 
 
 def _open(path: str | Path):
-    p = Path(path)
-    if not p.is_file():
-        raise LaneFinderError(f"{'not a file' if p.exists() else 'video not found'}: {p}")
+    p = input_file(path, "video")
     try:
         c = av.open(str(p))
     except (av.error.FFmpegError, OSError, UnicodeDecodeError, ValueError) as e:
