@@ -6,7 +6,8 @@ Measured on 100 frames (4 s) at 640x360, each with a look and camera drawn from 
 worn seed 3, no frame without a lane, lateral error 6 m ahead p90 0.022 m; curve-entry
 (R down to 250 m and back in tree shadow, lateral drift) seeds 3 and 6, p90 0.022 and 0.036 m.
 Curve-entry seed 4 measured 0.119 m, over the 0.08 m target: it is not among these tests, and the
-closing note of issue 12 says so.
+closing note of issue 12 says so. The wet-night test uses tuning seed 7 of the ``night`` scenario,
+on which the streak removal (``threshold.streaks``) was chosen.
 """
 
 from __future__ import annotations
@@ -20,12 +21,18 @@ from lanefinder.synth import write_sequence
 from lanefinder.videojob import process_video
 
 
-def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int, int] = (640, 360)):
+def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int, int] = (640, 360),
+         streaks: bool = True):
     # 4 s at 640x360 by default (the pipeline works in metres at any size; a quarter of the rendering time).
-    camera = udacity_camera().scaled_to(size)
-    folder = write_sequence(scenario, frames, tmp_path, seed=seed, camera=camera, randomise=True)
-    process_video(folder / "video.mp4", None, load_config(folder / "config.toml"),
-                  telemetry=folder / "t.jsonl", progress=False)
+    folder = tmp_path / f"{scenario}-{seed}"
+    if not (folder / "video.mp4").exists():
+        camera = udacity_camera().scaled_to(size)
+        write_sequence(scenario, frames, folder, seed=seed, camera=camera, randomise=True)
+    cfg = load_config(folder / "config.toml")
+    if not streaks:
+        cfg = cfg.model_copy(update={"threshold": cfg.threshold.model_copy(
+            update={"streaks": cfg.threshold.streaks.model_copy(update={"enabled": False})})})
+    process_video(folder / "video.mp4", None, cfg, telemetry=folder / "t.jsonl", progress=False)
     return evaluate(read_ground_truth(folder / "gt.jsonl"), read_predictions(folder / "t.jsonl"))
 
 
@@ -63,3 +70,14 @@ def test_dashed_lines_are_followed_far_ahead_across_missed_dashes(tmp_path, seed
     # 0.367 at 40-70 m; measured after, 0.950 and 1.000.
     rep = _run(tmp_path, "straight", seed, frames=30, size=(1280, 720))
     assert rep.band_accuracy[band] is not None and rep.band_accuracy[band] >= least
+
+
+@pytest.mark.slow
+def test_reflections_on_a_wet_night_are_not_taken_for_lines(tmp_path):
+    # Tuning seed 7 of the night scenario: a wet road, street lamps on the right whose
+    # reflections run down the frame beside the dashed right line. 30 frames at 640x360,
+    # measured: 0.959 with the streaks pointing at the camera taken out, 0.820 without (at 720p
+    # 0.960 and 0.452).
+    without = _run(tmp_path, "night", 7, frames=30, streaks=False)
+    with_ = _run(tmp_path, "night", 7, frames=30)
+    assert with_.accuracy >= 0.93 and without.accuracy <= 0.86

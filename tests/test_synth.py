@@ -18,6 +18,7 @@ from lanefinder.synth import (
     SCENARIOS,
     Appearance,
     Mount,
+    NightLight,
     Renderer,
     Vehicle,
     write_sequence,
@@ -215,6 +216,36 @@ def test_paint_washed_out_by_glare_is_not_labelled(camera):
     assert 0 < seen(tg) < seen(tc)  # the glare ahead hides the far paint; what is left is labelled
     far_row, far_x = next((h, x) for h, x in zip(tg.h_samples, tg.left_x, strict=True) if x >= 0)
     assert not r.washed_out(0.0, np.array([far_x]), np.array([far_row], float), look.yellow).any()
+
+
+def test_at_night_paint_beyond_the_beams_is_not_labelled(camera):
+    night = SCENARIOS["night"]
+    day = replace(night, conditions=replace(night.conditions, night=False))
+    rn, rd = (Renderer(camera, Mount(), sc, seed=3) for sc in (night, day))
+    rn.night = NightLight(ambient=0.0, reach_m=6.0, retro=1.0, exposure=0.3, noise=0.0)  # dim beams, no lamps
+    tn, td = (x.truth(0, 0.0, x.geometry(0.0)) for x in (rn, rd))
+    far = lambda t: min(h for h, x in zip(t.h_samples, t.left_x, strict=True) if x >= 0)  # noqa: E731
+    assert far(tn) > far(td) + 20  # the solid left line is labelled only as far as the beams show it
+    # What is labelled can be seen: where the truth ends the paint is still 6 grey levels lighter.
+    g = rn.geometry(0.0)
+    z = np.geomspace(1.0, rn.visible_m, 400)
+    x = rn.centre(g, z) - 0.5 * g["width"]
+    hidden = rn.unlit(x, z, rn.look.yellow, rn.paint_along(z + g["travelled"], False), z + g["travelled"],
+                      x - rn.centre(g, z))
+    assert not hidden[:50].any() and hidden[-50:].all()
+
+
+def test_a_wet_night_mirrors_the_lights_in_the_road(camera):
+    night = SCENARIOS["night"]
+    dry, wet = (Renderer(camera, Mount(), night, seed=2, supersample=1) for _ in range(2))
+    lamps = NightLight(lamp_spacing_m=30.0, lamp_rel_m=5.0, noise=0.0)
+    dry.night, wet.night = lamps, replace(lamps, wet=True)
+    a, b = (r.render(0.5).astype(np.int16) for r in (dry, wet))
+    h = a.shape[0]
+    brighter = (b - a).max(axis=2)[h // 2:] > 20  # below the horizon only: the reflections
+    assert brighter.sum() > 500
+    cols = np.flatnonzero(brighter.any(axis=0))
+    assert cols.min() > a.shape[1] // 2  # the lamps stand right of the road, and so do their reflections
 
 
 def test_on_a_level_road_the_rays_meet_it_where_the_flat_model_says(camera):

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lanefinder.config import BirdseyeConfig, Config, ThresholdConfig
+from lanefinder.config import BirdseyeConfig, Config, StreaksConfig, ThresholdConfig
 from lanefinder.pipeline import LaneFinder
-from lanefinder.threshold import threshold
+from lanefinder.threshold import streaks, threshold
 
 
 @pytest.fixture(scope="module")
@@ -67,3 +67,29 @@ def test_a_cap_on_the_relative_test_finds_faint_white_on_light_concrete():
     assert threshold(road, plain, XM).sum() == 0
     mask = threshold(road, capped, XM)
     assert mask[:, 150:156].mean() > 0.9 and mask[:, :140].sum() == 0
+
+
+def _line(b: np.ndarray, x_of_y) -> None:
+    """Draw a 5 px wide line x(y) into a bird's-eye binary (y: rows from the top)."""
+    y = np.arange(b.shape[0])
+    x = np.round(x_of_y(y.astype(float))).astype(int)
+    for dx in range(-2, 3):
+        ok = (x + dx >= 0) & (x + dx < b.shape[1])
+        b[y[ok], x[ok] + dx] = 1
+
+
+def test_streaks_pointing_at_the_camera_are_taken_out_and_lane_lines_kept():
+    # The default view's scale: 400x300 px, 0.025 m across and 0.1 m along a pixel; the camera
+    # 6 m behind the bottom row, below column 200.
+    xm, ym, foot = 0.025, 0.1, (200.0, 360.0)
+    lanes = np.zeros((300, 400), np.uint8)
+    _line(lanes, lambda y: 126 + 0 * y)                                  # straight, 1.85 m left
+    _line(lanes, lambda y: 274 + ((300 - y) * ym) ** 2 / (2 * 100) / xm)  # right line of a bend, R 100 m
+    _line(lanes, lambda y: 200 + (360 - y) * 0.05)                       # a line passing under the car
+    assert not streaks(lanes, foot, xm, ym, StreaksConfig()).any()
+    wet = lanes.copy()
+    _line(wet, lambda y: 200 + (360 - y) * 0.5)  # a lamp's reflection, 0.75 m right at the bottom
+    found = streaks(wet, foot, xm, ym, StreaksConfig())
+    assert found.sum() > 0.9 * (wet.sum() - lanes.sum())
+    assert (found & (lanes > 0)).sum() < 40  # of the lane lines, only where the streak crosses one
+    assert not streaks(wet, foot, xm, ym, StreaksConfig(min_run_m=40.0)).any()  # no fan that long: none

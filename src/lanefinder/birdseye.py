@@ -44,6 +44,8 @@ class BirdsEye:
         The ``cv2.remap`` tables from the raw frame to the bird's-eye image.
     car_x_px : float
         Bird's-eye x of the road point right below the camera (see :func:`camera_foot_px`).
+    car_y_px : float
+        Its bird's-eye y: below the bottom row, the camera being behind the view (NaN: unknown).
 
     Examples
     --------
@@ -64,6 +66,7 @@ class BirdsEye:
     map1: np.ndarray
     map2: np.ndarray
     car_x_px: float
+    car_y_px: float = float("nan")
 
     @property
     def frame_size(self) -> tuple[int, int]:
@@ -327,6 +330,6 @@ def make_birdseye(
     # with (K, dist).  With newK = M @ K and R = I that ray is inv(K) @ inv(M) @ p: the
     # undistorted pixel M^-1 p, exactly what one remap from raw frame to bird's-eye needs.
     map1, map2 = cv2.initUndistortRectifyMap(k, camera.dist_coeffs, None, m @ k, size, cv2.CV_16SC2)
-    car_x = camera_foot_px(camera.camera_matrix, m, xm_per_px, ym_per_px)[0]
+    car_x, car_y = camera_foot_px(camera.camera_matrix, m, xm_per_px, ym_per_px)
     return BirdsEye(camera, src, dst, (int(size[0]), int(size[1])), float(xm_per_px), float(ym_per_px),
-                    m, m_inv, map1, map2, float(car_x))
+                    m, m_inv, map1, map2, float(car_x), float(car_y))

@@ -36,6 +36,7 @@ __all__ = [
     "SearchConfig",
     "SelfCalConfig",
     "SobelHlsConfig",
+    "StreaksConfig",
     "ThresholdConfig",
     "TrackingConfig",
     "VideoConfig",
@@ -337,6 +338,41 @@ class RidgeConfig(_Section):
     noise_patch_m: Annotated[float, Field(gt=0, le=10)] = 1.5
 
 
+class StreaksConfig(_Section):
+    """Streaks that point at the camera, taken out of the bird's-eye binary before the search.
+
+    Anything upright in the frame lies, in the bird's-eye view, on a ray from the road point
+    right below the camera: the reflections of street lamps, tail lights and headlights on a
+    wet road at night, a vehicle's sides, poles.  A lane line does so only where it passes
+    under the car.  Set pixels that lie in one narrow fan of directions from that point over a
+    long stretch are taken out (see :func:`lanefinder.threshold.streaks`).
+
+    Attributes
+    ----------
+    enabled : bool
+        Take the streaks out.
+    bin_deg : float
+        Width of a fan of directions, degrees.
+    min_run_m : float
+        A fan whose set pixels cover at least this much of the road ahead (rows, metres) holds
+        a streak (a lane line that curves away from a ray stays in one fan only for a few metres;
+        a lamp's reflection on a wet road runs most of the view).
+    min_side_m : float
+        Only fans that pass at least this far to the side of the car at the view's bottom row
+        (m): a line passing under the car points at the camera too.
+
+    Examples
+    --------
+    >>> StreaksConfig().min_run_m
+    18.0
+    """
+
+    enabled: bool = True
+    bin_deg: Annotated[float, Field(gt=0.01, le=10)] = 0.3
+    min_run_m: Annotated[float, Field(gt=0, le=1000)] = 18.0
+    min_side_m: Annotated[float, Field(ge=0, le=100)] = 0.6
+
+
 class ThresholdConfig(_Section):
     """Which thresholding strategy finds marking pixels, and each strategy's levels.
 
@@ -346,6 +382,8 @@ class ThresholdConfig(_Section):
         ``ridge`` (default), ``sobel-hls``, ``color`` or ``ycrcb``.
     ridge, sobel_hls, color, ycrcb : section
         Each strategy's settings.
+    streaks : section
+        Streaks pointing at the camera, taken out of the binary (:class:`StreaksConfig`).
 
     Examples
     --------
@@ -358,6 +396,7 @@ class ThresholdConfig(_Section):
     sobel_hls: SobelHlsConfig = SobelHlsConfig()
     color: ColorConfig = ColorConfig()
     ycrcb: YcrcbConfig = YcrcbConfig()
+    streaks: StreaksConfig = StreaksConfig()
 
 
 class SearchConfig(_Section):

@@ -30,7 +30,7 @@ from .measure import Measured, Measurer, measure
 from .search import Pixels
 from .selfcal import SelfCalibrator, lines_setup, look_at_still
 from .selfcal import wanted as selfcal_wanted
-from .threshold import rowwise, threshold
+from .threshold import rowwise, streak_points, threshold
 from .tracking import Track, Verdict, step
 
 __all__ = ["LaneFinder", "LaneResult", "birdseye_config_used", "birdseye_from_config", "camera_from_config"]
@@ -704,19 +704,34 @@ class LaneFinder:
         """
         self.birdseye(be.frame_size)
         m = measurer or self.measurer
-        measured = measure(binary, view, self.track, m, Pixels.of(binary))
+        binary, px = self._without_streaks(binary, be)
+        measured = measure(binary, view, self.track, m, px)
         if (view is not None and max(_confidences(measured)) < self.config.tracking.min_confidence
                 and (faint := self._faint_threshold()) is not None):
             # No line to take: a second look for faint paint (worn paint on light concrete), whose
             # lines are taken when each it finds is at least faint_confidence sure.
-            binary2 = threshold(view, faint, be.xm_per_px)
-            again = measure(binary2, view, self.track, m, Pixels.of(binary2))
+            binary2, px2 = self._without_streaks(threshold(view, faint, be.xm_per_px), be)
+            again = measure(binary2, view, self.track, m, px2)
             found = [c for c in _confidences(again) if c > 0]
             if found and min(found) >= self.config.threshold.ridge.faint_confidence:
                 measured, binary = again, binary2
         self.track, verdict = step(self.track, measured.lines, measured.blind, m.rules)
         debug = {"binary": binary, "search": measured.search} if self.keep_debug else {}
         return self._result(verdict, (*measured.reasons, *verdict.reasons), debug)
+
+    def _without_streaks(self, binary: np.ndarray, be: BirdsEye) -> tuple[np.ndarray, Pixels]:
+        """Take the streaks pointing at the camera out of a bird's-eye binary and its pixels (``threshold.streaks``)."""
+        px = Pixels.of(binary)
+        cfg = self.config.threshold.streaks
+        if not cfg.enabled:
+            return binary, px
+        on = streak_points(px.x, px.y, px.shape, (be.car_x_px, be.car_y_px), be.xm_per_px, be.ym_per_px, cfg)
+        if not on.any():
+            return binary, px
+        out = binary.copy()
+        out[px.y[on], px.x[on]] = 0
+        off = ~on
+        return out, Pixels(px.x[off], px.y[off], px.shape)
 
     def _result(self, v: Verdict, checks: tuple[str, ...], debug: dict) -> LaneResult:
         if not v.has_lane:

@@ -54,6 +54,7 @@ __all__ = [
     "FrameTruth",
     "Marking",
     "Mount",
+    "NightLight",
     "Renderer",
     "Scenario",
     "Vehicle",
@@ -128,6 +129,10 @@ class Conditions:
         road's edge (solid white, or bare), 0.3 m beyond it sunlit dirt in patches, dry stalks
         along the road, and a guard rail (drawn on the ground: a bright band with dark posts),
         which pass a lightness test as markings do.
+    night : bool
+        Night: a dark sky, the road lit by the car's low beams (falling with distance and to the
+        sides) and a little ambient light, paint that shines back in the beams (retroreflective),
+        vehicles ahead dark with red tail lights, and sensor noise (see :class:`NightLight`).
 
     Examples
     --------
@@ -143,6 +148,136 @@ class Conditions:
     worn: bool = False
     double_yellow: bool = False
     roadside: bool = False
+    night: bool = False
+
+
+@dataclass(frozen=True)
+class NightLight:
+    """How a night scene is lit and exposed (drawn per sequence by :meth:`random`).
+
+    The light on the road at ``(x, z)`` (m across from the camera, m ahead) is ``ambient`` plus
+    the low beams, ``min(1, (reach_m / z) ** 2)`` times a cone ``spread`` wide per metre ahead
+    (plus 2 m), plus the pools of street lamps; paint returns the beams' light ``retro`` times as
+    strongly as the road (the rest not).  The frame is ``exposure`` times the lit scene plus
+    Gaussian noise of ``noise`` grey levels.
+
+    Attributes
+    ----------
+    ambient, reach_m, spread, retro, exposure, noise : float
+        As above.
+    lamp_spacing_m : float
+        Street lamps every this many metres along the road (0: none), ...
+    lamp_rel_m : float
+        ... this far across from the ego lane's centre (m, positive right), ...
+    lamp_level : float
+        ... each lighting a pool (about 7 m across) this bright at its centre.
+    wet : bool
+        A wet road: every light (lamps, tail lights, headlights) is mirrored in it as a long
+        bright streak below its foot.
+    oncoming : bool
+        Cars come the other way in the lane left of the ego lane: a pair of headlights with a glow.
+
+    Examples
+    --------
+    >>> NightLight.random(0).retro > 1
+    True
+    """
+
+    ambient: float = 0.06
+    reach_m: float = 13.0
+    spread: float = 0.35
+    retro: float = 3.0
+    exposure: float = 0.7
+    noise: float = 2.5
+    lamp_spacing_m: float = 0.0
+    lamp_rel_m: float = 6.0
+    lamp_level: float = 0.5
+    wet: bool = False
+    oncoming: bool = False
+
+    @classmethod
+    def random(cls, seed: int) -> NightLight:
+        """Draw a night's light from a seed (its own draws: a day scene's look does not change).
+
+        Parameters
+        ----------
+        seed : int
+            The sequence's seed.
+
+        Returns
+        -------
+        NightLight
+            The light.
+
+        Examples
+        --------
+        >>> NightLight.random(3) == NightLight.random(3)
+        True
+        """
+        rng = np.random.default_rng([seed, 0x4E16])
+        return cls(ambient=float(rng.uniform(0.02, 0.1)), reach_m=float(rng.uniform(10.0, 17.0)),
+                   spread=float(rng.uniform(0.25, 0.45)), retro=float(rng.uniform(1.8, 4.0)),
+                   exposure=float(rng.uniform(0.5, 0.9)), noise=float(rng.uniform(1.5, 4.0)),
+                   lamp_spacing_m=float(rng.uniform(30.0, 50.0)) if rng.random() < 0.5 else 0.0,
+                   lamp_rel_m=float(rng.choice([-1.0, 1.0]) * rng.uniform(4.0, 7.0)),
+                   lamp_level=float(rng.uniform(0.3, 0.8)), wet=bool(rng.random() < 0.5),
+                   oncoming=bool(rng.random() < 0.5))
+
+    def lamp_u(self, u: np.ndarray | float) -> np.ndarray:
+        """Give how far along the road a place lies from the nearest lamp's foot.
+
+        Parameters
+        ----------
+        u : float or ndarray
+            Distances along the road (anchored to it), m.
+
+        Returns
+        -------
+        ndarray
+            Signed distance to the nearest lamp, m (float32; inf without lamps).
+
+        Examples
+        --------
+        >>> NightLight(lamp_spacing_m=40.0).lamp_u(np.array([20.0, 30.0])).tolist()
+        [0.0, 10.0]
+        """
+        if self.lamp_spacing_m <= 0:
+            return np.full(np.shape(u), np.inf, np.float32)
+        sp = np.float32(self.lamp_spacing_m)
+        return (np.mod(np.asarray(u, np.float32), sp) - sp / 2).astype(np.float32)
+
+    def light(self, x: np.ndarray, z: np.ndarray, u: np.ndarray | None = None,
+              rel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Give the light on the road at ``(x, z)`` that paint does not and does shine back (each 0-1, float32).
+
+        Parameters
+        ----------
+        x, z : ndarray
+            Across from the camera and ahead of it, m.
+        u, rel : ndarray, optional
+            Along the road (anchored to it) and across from the ego lane's centre, m: where the
+            street lamps' pools fall (without them, no pools).
+
+        Returns
+        -------
+        tuple of ndarray
+            The ambient light and the lamps' pools, and the beams' light.
+
+        Examples
+        --------
+        >>> amb, beam = NightLight().light(np.array([0.0, 0.0]), np.array([10.0, 40.0]))
+        >>> float(beam[0]) > 0.9 > 0.2 > float(beam[1])
+        True
+        """
+        z = np.maximum(np.asarray(z, np.float32), np.float32(0.5))
+        fall = np.minimum(np.float32(1), (np.float32(self.reach_m) / z) ** 2)
+        cone = np.exp(-((np.asarray(x, np.float32) - np.float32(0.3)) / (np.float32(self.spread) * z + 2)) ** 2)
+        amb = np.full(z.shape, self.ambient, np.float32)
+        if u is not None and rel is not None and self.lamp_spacing_m > 0:
+            du = self.lamp_u(u)
+            dr = np.asarray(rel, np.float32) - np.float32(self.lamp_rel_m)
+            amb = amb + np.float32(self.lamp_level) * np.exp(-(du * du + dr * dr) / np.float32(2 * 3.5**2))
+        return amb.astype(np.float32), (fall * cone).astype(np.float32)
 
 
 #: Dash and gap lengths (m) a randomised road draws from: US 10/30 ft, the same in metres,
@@ -482,6 +617,9 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
              offset_m=(0.1, 0.2), conditions=Conditions(roadside=True),
              description="crests and sags (vertical radius 900 m) on a winding two-lane road (R 450 m), a cluttered "
                          "verge"),
+    Scenario("night", curvature=(1 / 1200, 1 / 3000), conditions=Conditions(night=True),
+             description="night: the car's low beams and a little ambient light, paint shining back in the beams, "
+                         "tail lights, sensor noise"),
 ]}
 
 
@@ -689,6 +827,9 @@ class Renderer:
             cracks = (cracks - cracks.mean()) / (cracks.std() + 1e-6)
             self.cracks = (np.abs(cracks) < 0.06).astype(np.float32)  # thin meandering contours
         self.hills = any(v != 0 for v in scenario.vertical_curvature)
+        self.seed = seed
+        self.night = ((NightLight.random(seed) if appearance is not None else NightLight())
+                      if scenario.conditions.night else None)
         self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band, self.rays = _ground_samples(
             camera, self.rot, mount.height_m, supersample, self.hills)
         self.size, self.s = (w, h), supersample
@@ -919,6 +1060,9 @@ class Renderer:
         seen = ok & (und[:, 0] >= 0) & (und[:, 0] < w) & (und[:, 1] >= 0) & (und[:, 1] < h)
         painted = seen & (self.paint_along(z + g["travelled"], marking.dashed) > 0)
         painted &= ~self.washed_out(t, und[:, 0], und[:, 1], marking.colour)
+        if self.night is not None:
+            painted &= ~self.unlit(x, z, marking.colour, self.paint_along(z + g["travelled"], marking.dashed),
+                                   z + g["travelled"], x - self.centre(g, z))
         if not painted.any():
             return [-2.0] * len(rows)
         ok &= z <= z[painted].max()
@@ -1070,6 +1214,40 @@ class Renderer:
             contrast = np.maximum(contrast, seen)
         return contrast < MIN_VISIBLE_CONTRAST
 
+    def unlit(self, x: np.ndarray, z: np.ndarray, paint: tuple[float, float, float],
+              along: np.ndarray, u: np.ndarray | None = None, rel: np.ndarray | None = None) -> np.ndarray:
+        """Tell where the night leaves a marking less than ``MIN_VISIBLE_CONTRAST`` from the road in every channel.
+
+        Parameters
+        ----------
+        x, z : ndarray
+            The marking's points across from the camera and ahead of it, m.
+        paint : tuple of float
+            The paint's colour, BGR 0-255.
+        along : ndarray
+            The paint there (:meth:`paint_along`), 0-1.
+        u, rel : ndarray, optional
+            Along the road and across from the ego lane's centre, m (for the lamps' pools).
+
+        Returns
+        -------
+        ndarray of bool
+            True where the paint cannot be told from the road (beyond the beams, say); all
+            False by day.
+        """
+        if self.night is None:
+            return np.zeros(np.shape(x), bool)
+        look, n = self.look, self.night
+        amb, beam = n.light(np.asarray(x, np.float32), np.asarray(z, np.float32), u, rel)
+        a = np.asarray(along, np.float32) * np.float32(look.paint)
+        contrast = np.zeros(np.shape(a), np.float32)
+        for colour, tint in zip(paint, look.tint, strict=True):
+            road = look.surface_grey * tint * look.gain
+            mixed = (road * (1 - a) + a * colour * look.gain) * n.exposure * (amb + beam * (1 + (n.retro - 1) * a))
+            bare = road * n.exposure * (amb + beam)
+            contrast = np.maximum(contrast, np.abs(np.minimum(255, mixed) - np.minimum(255, bare)))
+        return contrast < MIN_VISIBLE_CONTRAST
+
     # -- appearance -------------------------------------------------------------------------
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
         m = tile.shape[0] - 1  # tiles are a power of two wide: "& m" is "% (m + 1)", also below zero
@@ -1130,6 +1308,8 @@ class Renderer:
         if c.roadside:
             self._verge(img, rel, u, off_road, right_edge)
 
+        shine = np.zeros(rel.size, np.float32) if self.night is not None else None  # paint cover, for the beams
+
         def paint(centre_rel: float, color: tuple[float, float, float], dashed: bool, alpha: float = 1.0,
                   width: float = look.marking_m) -> None:
             d = np.abs(rel - centre_rel).ravel()
@@ -1144,6 +1324,8 @@ class Renderer:
             a = (cov * (alpha * look.paint))[:, None].astype(np.float32)
             flat = img.reshape(-1, 3)
             flat[idx] = flat[idx] * (1 - a) + a * np.asarray(color, np.float32)
+            if shine is not None:
+                shine[idx] = np.maximum(shine[idx], a[:, 0])
 
         for m in self.road_markings(width):
             paint(m.centre_m, m.colour, m.dashed, width=m.width_m)
@@ -1156,17 +1338,121 @@ class Renderer:
         if look.gain != 1.0:
             shade = shade * np.float32(look.gain)
         img *= shade[..., None]
-        img[~ground] = self.sky_band[~ground]
+        night = self.night
+        if night is not None and shine is not None:
+            amb, beam = night.light(X, Zc, u, rel)
+            lit = night.exposure * (amb + beam * (1 + (night.retro - 1) * shine.reshape(rel.shape)))
+            img *= lit[..., None]
+        sky_band, sky_full = self.sky_band, self.sky_full
+        if night is not None:
+            sky_band, sky_full = sky_band * np.float32(0.04) + 3, sky_full * np.float32(0.04) + 3
+        img[~ground] = sky_band[~ground]
         w, h = self.size
-        out = self.sky_full.copy()
+        out = sky_full.copy()
         s = self.s
         out[self.r0 // s:] = cv2.resize(img, (w, h - self.r0 // s), interpolation=cv2.INTER_AREA)
         for grey, poly in self.vehicles(t, g):
-            cv2.fillPoly(out, [np.round(poly).astype(np.int32)], (grey, grey, grey * 1.05), cv2.LINE_AA)
+            if night is None:
+                cv2.fillPoly(out, [np.round(poly).astype(np.int32)], (grey, grey, grey * 1.05), cv2.LINE_AA)
+                continue
+            dark = 0.12 * grey
+            cv2.fillPoly(out, [np.round(poly).astype(np.int32)], (dark, dark, dark * 1.05), cv2.LINE_AA)
+            # Tail lights: 0.4 of the way up, 0.15 of the width in from each side.
+            bl, br, tr, tl = poly
+            for side, top in ((bl, tl), (br, tr)):
+                other = br if side is bl else bl
+                lamp = side + 0.4 * (top - side) + 0.15 * (other - side)
+                r = max(1, round(0.07 * float(np.hypot(*(br - bl)))))
+                cv2.circle(out, (round(float(lamp[0])), round(float(lamp[1]))), r, (40, 40, 250), -1, cv2.LINE_AA)
+        if night is not None:
+            self._night_lights(out, t, g)
+            rng = np.random.default_rng([self.seed, round(t * 1000)])
+            out = out + rng.normal(0.0, night.noise, out.shape).astype(np.float32)
         if c.glare:
             yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
             out = out * GLARE_GAIN + GLARE_GLOW * self.glow(t, xx, yy)[..., None]
         return np.clip(out, 0, 255).astype(np.uint8)
+
+    def _reflection(self, out: np.ndarray, g: dict, x: float, up: float, z: float, r: float,
+                    colour: tuple[float, float, float]) -> None:
+        """Add a light's reflection in a wet road (in place): a soft streak from its foot towards the camera.
+
+        The light ``up`` m over the road at ``(x, z)`` is mirrored ``up`` m below it; roughness
+        draws the mirror image out along the vertical through the light, from its foot down to
+        1.6 times as deep.  That vertical is projected through the lens point by point (it bends
+        with the distortion as the road's lines do).
+        """
+        h, w = out.shape[:2]
+        y = float(self.road_y(g, z))
+        pts = np.column_stack([np.full(40, x), y + np.linspace(0.0, 1.6 * up, 40), np.full(40, z)])
+        cam = pts @ self.rot.T
+        k = np.asarray(self.camera.camera_matrix, np.float64)
+        pin = (cam @ k.T)[:, :2] / (cam @ k.T)[:, 2:]
+        ok = (pin[:, 0] > -0.1 * w) & (pin[:, 0] < 1.1 * w) & (pin[:, 1] > -0.1 * h) & (pin[:, 1] < 1.1 * h)
+        ok = np.logical_and.accumulate(ok)
+        if ok.sum() < 2:
+            return
+        rvec, _ = cv2.Rodrigues(self.rot)
+        img, _ = cv2.projectPoints(pts[ok], rvec, np.zeros(3), k, self.camera.dist_coeffs)
+        img = img.reshape(-1, 2)
+        pad = int(4 * r + 20)
+        a, b = max(0, int(img[:, 0].min()) - pad), min(w, int(img[:, 0].max()) + pad + 1)
+        c, d = max(0, int(img[:, 1].min()) - pad), min(h, int(img[:, 1].max()) + pad + 1)
+        if a >= b or c >= d:
+            return
+        layer = np.zeros((d - c, b - a), np.float32)
+        cv2.polylines(layer, [np.round(img - [a, c]).astype(np.int32)], False, 1.0, max(1, round(1.5 * r)), cv2.LINE_AA)
+        layer = cv2.GaussianBlur(layer, (0, 0), max(1.0, 0.6 * r), sigmaY=max(2.0, 1.5 * r))
+        out[c:d, a:b] += layer[..., None] * np.asarray(colour, np.float32)
+
+    def _night_lights(self, out: np.ndarray, t: float, g: dict) -> None:
+        """Draw the street lamps and oncoming headlights with their glow, and on a wet road every light's reflection."""
+        n = self.night
+        if n is None:
+            return
+        lights = []  # (x, height above the road, z, radius m, colour BGR, glow; None: drawn already)
+        if n.lamp_spacing_m > 0:
+            sp = n.lamp_spacing_m
+            first = math.ceil((g["travelled"] + 4 - sp / 2) / sp)
+            for k in range(first, first + int(150 // sp) + 1):
+                z = k * sp + sp / 2 - g["travelled"]
+                if 10 < z < 150:
+                    lights.append((float(self.centre(g, z)) + n.lamp_rel_m, 8.0, z, 0.3, (170, 215, 255), 0.6))
+        if n.oncoming:
+            z = 150.0 - 35.0 * ((t + self.seed % 5) % 5.0)
+            if 8 < z < 150:
+                x = float(self.centre(g, z)) - g["width"]
+                lights += [(x + dx, 0.65, z, 0.12, (255, 250, 240), 1.0) for dx in (-0.75, 0.75)]
+        if n.wet:
+            for v in self.look.vehicles:
+                z = v.z_at(t)
+                if 4 < z < 150:
+                    x = float(self.centre(g, z)) + v.lane * g["width"]
+                    lights += [(x + dx, 0.6, z, 0.07, (40, 40, 250), None) for dx in (-0.63, 0.63)]
+        if not lights:
+            return
+        k = np.asarray(self.camera.camera_matrix, np.float64)
+        rvec, _ = cv2.Rodrigues(self.rot)
+        heads = np.array([[x, float(self.road_y(g, z)) - up, z] for x, up, z, *_ in lights])
+        img, _ = cv2.projectPoints(heads, rvec, np.zeros(3), k, self.camera.dist_coeffs)
+        img = img.reshape(-1, 2)
+        cam = heads @ self.rot.T
+        pin = (cam @ k.T)[:, :2] / (cam @ k.T)[:, 2:]
+        w, h = self.size
+        inside = (pin[:, 0] > -0.1 * w) & (pin[:, 0] < 1.1 * w) & (pin[:, 1] > -0.1 * h) & (pin[:, 1] < 1.1 * h)
+        fx = float(k[0, 0])
+        glow = np.zeros(out.shape[:2], np.float32)
+        for (x, up, z, radius, colour, strength), head, ok in zip(lights, img, inside, strict=True):
+            if not ok:
+                continue
+            r = max(1.0, fx * radius / z)
+            if strength is not None:
+                centre = (round(float(head[0])), round(float(head[1])))
+                cv2.circle(glow, centre, max(1, round(3 * r)), strength, -1, cv2.LINE_AA)
+                cv2.circle(out, centre, max(1, round(r)), colour, -1, cv2.LINE_AA)
+            if n.wet:
+                self._reflection(out, g, x, up, z, r, tuple(0.5 * (strength or 0.5) * c for c in colour))
+        out += cv2.GaussianBlur(glow, (0, 0), 8)[..., None] * np.float32(160)
 
     def _verge(self, img: np.ndarray, rel: np.ndarray, u: np.ndarray, off_road: np.ndarray, right_m: float) -> None:
         """Draw a cluttered verge over the grass (in place): dirt, dry stalks and a guard rail."""

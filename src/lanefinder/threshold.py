@@ -7,15 +7,16 @@ bird's-eye image, where a marking has the same width (in pixels) near and far.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import cv2
 import numpy as np
 
-from .config import ColorConfig, RidgeConfig, SobelHlsConfig, ThresholdConfig, YcrcbConfig
+from .config import ColorConfig, RidgeConfig, SobelHlsConfig, StreaksConfig, ThresholdConfig, YcrcbConfig
 
 __all__ = ["BLOWN_OUT_LEVEL", "STRATEGIES", "blown_out", "blown_out_rows", "color", "ridge", "rowwise", "sobel_hls",
-           "threshold", "ycrcb"]
+           "streak_points", "streaks", "threshold", "ycrcb"]
 
 #: A pixel at least this bright in every channel is blown out (glare): no paint can be told from
 #: the road there.
@@ -309,3 +310,111 @@ def threshold(image: np.ndarray, cfg: ThresholdConfig, xm_per_px: float) -> np.n
     if cfg.strategy == "ridge":
         return ridge(image, cfg.ridge, xm_per_px)
     return func(image, getattr(cfg, section))
+
+
+
+def streaks(binary: np.ndarray, car_px: tuple[float, float], xm_per_px: float, ym_per_px: float,
+            cfg: StreaksConfig) -> np.ndarray:
+    """Find the set pixels of a bird's-eye binary that lie on streaks pointing at the camera.
+
+    Anything upright in the frame (the reflection of a lamp on a wet road, a vehicle's side)
+    lies, in the bird's-eye view, on a ray from the road point right below the camera.  The
+    set pixels are binned by their direction from that point (fans ``cfg.bin_deg`` wide, twice,
+    the second time shifted by half a fan); a fan whose pixels cover ``cfg.min_run_m`` of the
+    road ahead or more, and that passes at least ``cfg.min_side_m`` to the side of the car at
+    the view's bottom row, holds a streak.  A lane line crosses the fans: one that curves away
+    from a ray stays in a fan for a few metres only.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    car_px : tuple of float
+        Bird's-eye (x, y) of the road point right below the camera
+        (:func:`lanefinder.birdseye.camera_foot_px`): y below the bottom row.
+    xm_per_px, ym_per_px : float
+        Metres per pixel across and along the road.
+    cfg : StreaksConfig
+        The fans and the lengths.
+
+    Returns
+    -------
+    (H, W) bool ndarray
+        True on the streaks' pixels (none where ``car_px`` is not below the view).
+
+    Examples
+    --------
+    >>> from lanefinder.config import StreaksConfig
+    >>> b = np.zeros((300, 400), np.uint8)
+    >>> b[:, 122:127] = 1                      # a lane line, 1.9 m left of the car
+    >>> y = np.arange(30, 300); b[y, np.round(200 - (y - 360) * 0.6).astype(int)] = 1  # a ray from the camera
+    >>> s = streaks(b, (200.0, 360.0), 0.025, 0.1, StreaksConfig())
+    >>> bool(s[:, 122:127].any()), int(s.sum())
+    (False, 270)
+    """
+    h, w = binary.shape[:2]
+    out = np.zeros((h, w), bool)
+    cx, cy = car_px
+    if not (math.isfinite(cx) and math.isfinite(cy)) or cy <= h:
+        return out
+    pts = cv2.findNonZero(binary)
+    if pts is None:
+        return out
+    pts = pts.reshape(-1, 2)
+    on = streak_points(pts[:, 0], pts[:, 1], (h, w), car_px, xm_per_px, ym_per_px, cfg)
+    out[pts[on, 1], pts[on, 0]] = True
+    return out
+
+
+def streak_points(x: np.ndarray, y: np.ndarray, shape: tuple[int, int], car_px: tuple[float, float],
+                  xm_per_px: float, ym_per_px: float, cfg: StreaksConfig) -> np.ndarray:
+    """:func:`streaks` for a binary's set pixels given as columns and rows: which lie on streaks.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        Columns and rows of the set pixels (as :class:`lanefinder.search.Pixels` holds them).
+    shape : tuple of int
+        (height, width) of the binary.
+    car_px, xm_per_px, ym_per_px, cfg
+        As for :func:`streaks`.
+
+    Returns
+    -------
+    ndarray of bool
+        Per pixel given, True on a streak.
+
+    Examples
+    --------
+    >>> from lanefinder.config import StreaksConfig
+    >>> y = np.arange(30, 300); x = np.round(200 - (y - 360) * 0.6).astype(int)  # a ray from the camera
+    >>> int(streak_points(x, y, (300, 400), (200.0, 360.0), 0.025, 0.1, StreaksConfig()).sum())
+    270
+    """
+    h, w = shape
+    cx, cy = car_px
+    none = np.zeros(np.shape(x), bool)
+    if x.size == 0 or not (math.isfinite(cx) and math.isfinite(cy)) or cy <= h:
+        return none
+    behind_m = (cy - h) * ym_per_px
+    # The tangent of each pixel's direction from the car, and the fans that can hold a streak:
+    # to the side of the car at the bottom row, and narrow enough to stay in the view along min_run_m.
+    tan = (x - cx) * xm_per_px / ((cy - y) * ym_per_px)
+    widest = max(cx, w - 1 - cx) * xm_per_px / (behind_m + cfg.min_run_m)
+    narrowest = cfg.min_side_m / behind_m if behind_m > 0 else math.inf
+    cand = np.flatnonzero((np.abs(tan) >= narrowest) & (np.abs(tan) <= widest))
+    if cand.size == 0:
+        return none
+    theta = np.arctan(tan[cand])
+    ys = y[cand]
+    step = math.radians(cfg.bin_deg)
+    flagged = np.zeros(cand.size, bool)
+    for shift in (0.0, 0.5):
+        fan = np.floor(theta / step + shift).astype(np.int64)
+        fan -= fan.min()
+        rows = np.zeros((int(fan.max()) + 1) * h, bool)
+        rows[fan * h + ys] = True  # the rows each fan has pixels on
+        run_m = np.count_nonzero(rows.reshape(-1, h), axis=1) * ym_per_px
+        flagged |= run_m[fan] >= cfg.min_run_m
+    none[cand[flagged]] = True
+    return none
