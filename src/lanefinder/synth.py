@@ -72,6 +72,9 @@ MARKING_M = 0.15
 LATERAL_AT_M = (6.0, 20.0)
 #: Glare: the frame is this much brighter, plus this many grey levels times the glow.
 GLARE_GAIN, GLARE_GLOW = 1.45, 170.0
+#: A wet road at night returns this share of the light a dry one does, and its paint this share of
+#: its shine beyond the road's (a film of water mirrors the beams away).
+WET_ALBEDO, WET_RETRO = 0.7, 0.4
 #: Paint less than this many grey levels lighter than the road around it is not visible (not labelled).
 MIN_VISIBLE_CONTRAST = 6.0
 #: On a road with crests and sags, the farthest road drawn, m (beyond it: haze, drawn as sky).  Rays
@@ -172,10 +175,13 @@ class NightLight:
     lamp_level : float
         ... each lighting a pool (about 7 m across) this bright at its centre.
     wet : bool
-        A wet road: every light (lamps, tail lights, headlights) is mirrored in it as a long
-        bright streak below its foot.
+        A wet road: darker (``WET_ALBEDO``), its paint shining back less (``WET_RETRO``: a film
+        of water mirrors the beams away), and every light (lamps, tail lights, headlights)
+        mirrored in it as a long bright streak below its foot.
     oncoming : bool
-        Cars come the other way in the lane left of the ego lane: a pair of headlights with a glow.
+        Cars come the other way in the lane left of the ego lane (drawn as road where the day's
+        look has none): a pair of headlights with a glow and a wide bloom; not where the lane is
+        bounded by a bare road edge.
 
     Examples
     --------
@@ -194,6 +200,16 @@ class NightLight:
     lamp_level: float = 0.5
     wet: bool = False
     oncoming: bool = False
+
+    @property
+    def albedo(self) -> float:
+        """How much of the light the road and its paint return diffusely (1, or ``WET_ALBEDO`` when wet)."""
+        return WET_ALBEDO if self.wet else 1.0
+
+    @property
+    def shine(self) -> float:
+        """How many times as strongly as the road the paint returns the beams (``retro``, less when wet)."""
+        return 1 + (self.retro - 1) * (WET_RETRO if self.wet else 1.0)
 
     @classmethod
     def random(cls, seed: int) -> NightLight:
@@ -217,7 +233,7 @@ class NightLight:
         rng = np.random.default_rng([seed, 0x4E16])
         return cls(ambient=float(rng.uniform(0.02, 0.1)), reach_m=float(rng.uniform(10.0, 17.0)),
                    spread=float(rng.uniform(0.25, 0.45)), retro=float(rng.uniform(1.8, 4.0)),
-                   exposure=float(rng.uniform(0.5, 0.9)), noise=float(rng.uniform(1.5, 4.0)),
+                   exposure=float(rng.uniform(0.5, 0.9)), noise=float(rng.uniform(2.0, 7.0)),
                    lamp_spacing_m=float(rng.uniform(30.0, 50.0)) if rng.random() < 0.5 else 0.0,
                    lamp_rel_m=float(rng.choice([-1.0, 1.0]) * rng.uniform(4.0, 7.0)),
                    lamp_level=float(rng.uniform(0.3, 0.8)), wet=bool(rng.random() < 0.5),
@@ -1243,8 +1259,9 @@ class Renderer:
         contrast = np.zeros(np.shape(a), np.float32)
         for colour, tint in zip(paint, look.tint, strict=True):
             road = look.surface_grey * tint * look.gain
-            mixed = (road * (1 - a) + a * colour * look.gain) * n.exposure * (amb + beam * (1 + (n.retro - 1) * a))
-            bare = road * n.exposure * (amb + beam)
+            gain = n.exposure * n.albedo
+            mixed = (road * (1 - a) + a * colour * look.gain) * gain * (amb + beam * (1 + (n.shine - 1) * a))
+            bare = road * gain * (amb + beam)
             contrast = np.maximum(contrast, np.abs(np.minimum(255, mixed) - np.minimum(255, bare)))
         return contrast < MIN_VISIBLE_CONTRAST
 
@@ -1299,6 +1316,8 @@ class Renderer:
             joint = np.abs(rel - look.seam_rel_m) < 0.05
             base = base - np.float32(look.tar_seams) * np.maximum(crack, joint.astype(np.float32))
         left_edge = {"white-dashed": -1.5 * width, "edge": -half}.get(look.left, -half)
+        if self.night is not None and self.night.oncoming and look.left != "edge":
+            left_edge = min(left_edge, -1.5 * width)  # the oncoming lane
         right_edge = half + 0.3 if c.roadside else 1.5 * width + 1.5
         off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > right_edge)
         tint = look.tint
@@ -1341,7 +1360,7 @@ class Renderer:
         night = self.night
         if night is not None and shine is not None:
             amb, beam = night.light(X, Zc, u, rel)
-            lit = night.exposure * (amb + beam * (1 + (night.retro - 1) * shine.reshape(rel.shape)))
+            lit = night.exposure * night.albedo * (amb + beam * (1 + (night.shine - 1) * shine.reshape(rel.shape)))
             img *= lit[..., None]
         sky_band, sky_full = self.sky_band, self.sky_full
         if night is not None:
@@ -1418,7 +1437,7 @@ class Renderer:
                 z = k * sp + sp / 2 - g["travelled"]
                 if 10 < z < 150:
                     lights.append((float(self.centre(g, z)) + n.lamp_rel_m, 8.0, z, 0.3, (170, 215, 255), 0.6))
-        if n.oncoming:
+        if n.oncoming and self.look.left != "edge":
             z = 150.0 - 35.0 * ((t + self.seed % 5) % 5.0)
             if 8 < z < 150:
                 x = float(self.centre(g, z)) - g["width"]
@@ -1442,6 +1461,7 @@ class Renderer:
         inside = (pin[:, 0] > -0.1 * w) & (pin[:, 0] < 1.1 * w) & (pin[:, 1] > -0.1 * h) & (pin[:, 1] < 1.1 * h)
         fx = float(k[0, 0])
         glow = np.zeros(out.shape[:2], np.float32)
+        bloom = np.zeros(out.shape[:2], np.float32)  # a camera blooms around headlights coming at it
         for (x, up, z, radius, colour, strength), head, ok in zip(lights, img, inside, strict=True):
             if not ok:
                 continue
@@ -1450,9 +1470,13 @@ class Renderer:
                 centre = (round(float(head[0])), round(float(head[1])))
                 cv2.circle(glow, centre, max(1, round(3 * r)), strength, -1, cv2.LINE_AA)
                 cv2.circle(out, centre, max(1, round(r)), colour, -1, cv2.LINE_AA)
+                if strength >= 1.0:
+                    cv2.circle(bloom, centre, max(2, round(6 * r)), 1.0, -1, cv2.LINE_AA)
             if n.wet:
                 self._reflection(out, g, x, up, z, r, tuple(0.5 * (strength or 0.5) * c for c in colour))
         out += cv2.GaussianBlur(glow, (0, 0), 8)[..., None] * np.float32(160)
+        if bloom.any():
+            out += cv2.GaussianBlur(bloom, (0, 0), 0.03 * w)[..., None] * np.float32(90)
 
     def _verge(self, img: np.ndarray, rel: np.ndarray, u: np.ndarray, off_road: np.ndarray, right_m: float) -> None:
         """Draw a cluttered verge over the grass (in place): dirt, dry stalks and a guard rail."""
