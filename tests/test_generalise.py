@@ -6,8 +6,8 @@ Measured on 100 frames (4 s) at 640x360, each with a look and camera drawn from 
 worn seed 3, no frame without a lane, lateral error 6 m ahead p90 0.022 m; curve-entry
 (R down to 250 m and back in tree shadow, lateral drift) seeds 3 and 6, p90 0.022 and 0.036 m.
 Curve-entry seed 4 measured 0.119 m, over the 0.08 m target: it is not among these tests, and the
-closing note of issue 12 says so. The wet-night test uses tuning seed 7 of the ``night`` scenario,
-on which the streak removal (``threshold.streaks``) was chosen.
+closing note of issue 12 says so. The wet-night tests use tuning seeds 7 and 9 of the ``night`` scenario,
+on which the streak removal (``threshold.streaks``) and its guard beside the car were chosen.
 """
 
 from __future__ import annotations
@@ -22,16 +22,19 @@ from lanefinder.videojob import process_video
 
 
 def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int, int] = (640, 360),
-         streaks: bool = True):
+         streaks: bool = True, streak_side_m: float | None = None):
     # 4 s at 640x360 by default (the pipeline works in metres at any size; a quarter of the rendering time).
     folder = tmp_path / f"{scenario}-{seed}"
     if not (folder / "video.mp4").exists():
         camera = udacity_camera().scaled_to(size)
         write_sequence(scenario, frames, folder, seed=seed, camera=camera, randomise=True)
     cfg = load_config(folder / "config.toml")
-    if not streaks:
+    change = {"enabled": False} if not streaks else {}
+    if streak_side_m is not None:
+        change["min_side_m"] = streak_side_m
+    if change:
         cfg = cfg.model_copy(update={"threshold": cfg.threshold.model_copy(
-            update={"streaks": cfg.threshold.streaks.model_copy(update={"enabled": False})})})
+            update={"streaks": cfg.threshold.streaks.model_copy(update=change)})})
     process_video(folder / "video.mp4", None, cfg, telemetry=folder / "t.jsonl", progress=False)
     return evaluate(read_ground_truth(folder / "gt.jsonl"), read_predictions(folder / "t.jsonl"))
 
@@ -81,3 +84,16 @@ def test_reflections_on_a_wet_night_are_not_taken_for_lines(tmp_path):
     without = _run(tmp_path, "night", 7, frames=30, streaks=False)
     with_ = _run(tmp_path, "night", 7, frames=30)
     assert with_.accuracy >= 0.93 and without.accuracy <= 0.86
+
+
+@pytest.mark.slow
+def test_reflections_of_lamps_far_ahead_are_taken_out_under_the_car(tmp_path):
+    # Tuning seed 9 of the night scenario: a wet road, lamps 5.6 m to the left every 49 m; the
+    # reflections of the far ones run down the lane almost straight at the camera, within 0.6 m
+    # of the car's line at the view's bottom row, and were kept (and taken for a marking inside the
+    # lane: no lane on its first 22 frames at 720p).  30 frames at 640x360, measured: 0.947 and no frame
+    # without a lane with the fans kept from 0.1 m beside the car's line; 0.282 and 70% with 0.6 m.
+    before = _run(tmp_path, "night", 9, frames=30, streak_side_m=0.6)
+    after = _run(tmp_path, "night", 9, frames=30)
+    assert after.accuracy >= 0.93 and after.no_lane_rate == 0.0
+    assert before.accuracy <= 0.4

@@ -370,7 +370,7 @@ class StreaksConfig(_Section):
     enabled: bool = True
     bin_deg: Annotated[float, Field(gt=0.01, le=10)] = 0.3
     min_run_m: Annotated[float, Field(gt=0, le=1000)] = 18.0
-    min_side_m: Annotated[float, Field(ge=0, le=100)] = 0.6
+    min_side_m: Annotated[float, Field(ge=0, le=100)] = 0.1
 
 
 class ThresholdConfig(_Section):
