@@ -161,7 +161,8 @@ class NightLight:
     The light on the road at ``(x, z)`` (m across from the camera, m ahead) is ``ambient`` plus
     the low beams, ``min(1, (reach_m / z) ** 2)`` times a cone ``spread`` wide per metre ahead
     (plus 2 m), plus the pools of street lamps; paint returns the beams' light ``retro`` times as
-    strongly as the road (the rest not).  The frame is ``exposure`` times the lit scene plus
+    strongly as the road (the rest not); a wet road returns less of it (:attr:`albedo`) and its
+    paint shines back less (:attr:`shine`).  The frame is ``exposure`` times the lit scene plus
     Gaussian noise of ``noise`` grey levels.
 
     Attributes
@@ -203,7 +204,7 @@ class NightLight:
 
     @property
     def albedo(self) -> float:
-        """How much of the light the road and its paint return diffusely (1, or ``WET_ALBEDO`` when wet)."""
+        """How much of the light the ground (road, paint, verge) returns diffusely (1, or ``WET_ALBEDO`` when wet)."""
         return WET_ALBEDO if self.wet else 1.0
 
     @property
