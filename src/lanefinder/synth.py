@@ -212,6 +212,32 @@ class NightLight:
         """How many times as strongly as the road the paint returns the beams (``retro``, less when wet)."""
         return 1 + (self.retro - 1) * (WET_RETRO if self.wet else 1.0)
 
+    def lit(self, amb: np.ndarray, beam: np.ndarray, paint: np.ndarray | float) -> np.ndarray:
+        """Give how bright the night leaves a point of the ground, as a factor of its day colour.
+
+        The one formula of the rendered frame and of the truth's visibility test
+        (:meth:`Renderer.unlit`), so the two cannot disagree.
+
+        Parameters
+        ----------
+        amb, beam : ndarray
+            The light from :meth:`light`: ambient and lamps, and the beams (0-1).
+        paint : ndarray or float
+            How much of the point is paint (0-1): paint shines the beams back :attr:`shine` times.
+
+        Returns
+        -------
+        ndarray
+            ``exposure * albedo * (amb + beam * (1 + (shine - 1) * paint))``.
+
+        Examples
+        --------
+        >>> n = NightLight(ambient=0.0, retro=3.0, exposure=0.5)
+        >>> float(n.lit(np.float32(0.0), np.float32(1.0), 1.0)), float(n.lit(np.float32(0.0), np.float32(1.0), 0.0))
+        (1.5, 0.5)
+        """
+        return self.exposure * self.albedo * (amb + beam * (1 + (self.shine - 1) * paint))
+
     @classmethod
     def random(cls, seed: int) -> NightLight:
         """Draw a night's light from a seed (its own draws: a day scene's look does not change).
@@ -851,6 +877,11 @@ class Renderer:
             camera, self.rot, mount.height_m, supersample, self.hills)
         self.size, self.s = (w, h), supersample
 
+    @property
+    def oncoming_lane(self) -> bool:
+        """Whether cars come the other way left of the ego lane (``oncoming``, not beyond a bare edge)."""
+        return self.night is not None and self.night.oncoming and self.look.left != "edge"
+
     # -- geometry ---------------------------------------------------------------------------
     def geometry(self, t: float) -> dict:
         """Give the road's geometry at a time.
@@ -1260,9 +1291,8 @@ class Renderer:
         contrast = np.zeros(np.shape(a), np.float32)
         for colour, tint in zip(paint, look.tint, strict=True):
             road = look.surface_grey * tint * look.gain
-            gain = n.exposure * n.albedo
-            mixed = (road * (1 - a) + a * colour * look.gain) * gain * (amb + beam * (1 + (n.shine - 1) * a))
-            bare = road * gain * (amb + beam)
+            mixed = (road * (1 - a) + a * colour * look.gain) * n.lit(amb, beam, a)
+            bare = road * n.lit(amb, beam, 0.0)
             contrast = np.maximum(contrast, np.abs(np.minimum(255, mixed) - np.minimum(255, bare)))
         return contrast < MIN_VISIBLE_CONTRAST
 
@@ -1317,7 +1347,7 @@ class Renderer:
             joint = np.abs(rel - look.seam_rel_m) < 0.05
             base = base - np.float32(look.tar_seams) * np.maximum(crack, joint.astype(np.float32))
         left_edge = {"white-dashed": -1.5 * width, "edge": -half}.get(look.left, -half)
-        if self.night is not None and self.night.oncoming and look.left != "edge":
+        if self.oncoming_lane:
             left_edge = min(left_edge, -1.5 * width)  # the oncoming lane
         right_edge = half + 0.3 if c.roadside else 1.5 * width + 1.5
         off_road = (rel < left_edge - (0.3 if look.left == "edge" else 1.2)) | (rel > right_edge)
@@ -1361,8 +1391,7 @@ class Renderer:
         night = self.night
         if night is not None and shine is not None:
             amb, beam = night.light(X, Zc, u, rel)
-            lit = night.exposure * night.albedo * (amb + beam * (1 + (night.shine - 1) * shine.reshape(rel.shape)))
-            img *= lit[..., None]
+            img *= night.lit(amb, beam, shine.reshape(rel.shape))[..., None]
         sky_band, sky_full = self.sky_band, self.sky_full
         if night is not None:
             sky_band, sky_full = sky_band * np.float32(0.04) + 3, sky_full * np.float32(0.04) + 3
@@ -1438,7 +1467,7 @@ class Renderer:
                 z = k * sp + sp / 2 - g["travelled"]
                 if 10 < z < 150:
                     lights.append((float(self.centre(g, z)) + n.lamp_rel_m, 8.0, z, 0.3, (170, 215, 255), 0.6))
-        if n.oncoming and self.look.left != "edge":
+        if self.oncoming_lane:
             z = 150.0 - 35.0 * ((t + self.seed % 5) % 5.0)
             if 8 < z < 150:
                 x = float(self.centre(g, z)) - g["width"]
