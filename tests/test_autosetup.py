@@ -132,6 +132,10 @@ def test_setup_command(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "no distortion model" in p.stdout and "vanishing point" in p.stdout
     assert out.is_file() and (tmp_path / "cam_preview.png").is_file()
+    # The set-up only: every other setting is left to the defaults of the lanefinder that reads it.
+    import re
+
+    assert set(re.findall(r"^\[([^].]+)", out.read_text(), re.M)) == {"camera", "birdseye"}
     check = subprocess.run([sys.executable, "-m", "lanefinder", "image", str(TEST_IMAGES / "test3.jpg"), "-c", str(out),
                             "-o", str(tmp_path / "o")], capture_output=True, text=True)
     assert check.returncode == 0 and "yes   yes" in check.stdout

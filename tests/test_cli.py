@@ -69,6 +69,18 @@ def test_config_round_trip(tmp_path):
     assert yml.returncode == 0 and "birdseye:" in yml.stdout
 
 
+def test_a_set_up_written_alone_reads_back_as_the_defaults_with_that_set_up(tmp_path):
+    from lanefinder.config import SETUP_SECTIONS, Config, dump_config, load_config
+
+    cfg = Config().model_copy(update={"birdseye": Config().birdseye.model_copy(update={"size": (500, 300)})})
+    for fmt in ("toml", "yaml", "json"):
+        path = tmp_path / f"setup.{'yml' if fmt == 'yaml' else fmt}"
+        path.write_text(dump_config(cfg, fmt, sections=SETUP_SECTIONS))
+        assert load_config(path) == cfg
+    with pytest.raises(ValueError, match="no config section cameras"):
+        dump_config(cfg, sections=("cameras",))
+
+
 def test_missing_image(tmp_path):
     assert_one_line_error(run("image", str(tmp_path / "nope.jpg"), "-o", str(tmp_path)), "not found")
 

@@ -92,6 +92,10 @@ def test_synth_command_writes_a_complete_sequence(tmp_path):
     assert p.returncode == 0, p.stderr
     assert {"video.mp4", "gt.jsonl", "camera.json", "config.toml", "scenario.json"} <= {
         f.name for f in tmp_path.iterdir()}
+    import re
+
+    text = (tmp_path / "config.toml").read_text()
+    assert set(re.findall(r"^\[([^].]+)", text, re.M)) == {"camera", "birdseye"}  # the set-up only
     rows = [json.loads(x) for x in (tmp_path / "gt.jsonl").read_text().splitlines()]
     assert len(rows) == 3 and {"curvature_per_m", "radius_m", "offset_m", "width_m", "lanes", "h_samples",
                                "raw_file"} <= set(rows[0])

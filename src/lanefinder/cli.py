@@ -427,7 +427,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     """Find the bird's-eye view and its scale for a new camera, from straight-road frames."""
     from .autosetup import SetupOptions, auto_setup, preview, straight_frames_from_video
     from .camera import load_camera
-    from .config import dump_config
+    from .config import SETUP_SECTIONS, dump_config
     from .io import OutputSet, atomic_write_text, check_outputs, input_file, list_images, read_image, write_image
 
     if bool(straight) == bool(video_path):
@@ -471,7 +471,7 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     for line in quality:
         click.echo(line)
     with OutputSet(inputs=_setup_inputs(paths, camera_path)) as together:
-        text = dump_config(result.config(), fmt)  # type: ignore[arg-type]
+        text = dump_config(result.config(), fmt, sections=SETUP_SECTIONS)  # type: ignore[arg-type]
         if fmt != "json":  # JSON has no comments: the report is printed above
             text = "".join(f"# set-up {line}\n" for line in quality[:3]) + text
         atomic_write_text(output, text, outputs=together)

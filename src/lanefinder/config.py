@@ -21,6 +21,7 @@ __all__ = [
     "LANE_WIDTH_M",
     "MAX_FOV_DEG",
     "MIN_FOV_DEG",
+    "SETUP_SECTIONS",
     "VIEW_SIZE_PX",
     "BatchConfig",
     "BirdseyeConfig",
@@ -66,6 +67,8 @@ LANE_WIDTH_M = 3.7
 VIEW_SIZE_PX = (400, 300)
 #: Pixels the lane spans across the default bird's-eye view, centred in it.
 LANE_SPAN_PX = 150.0
+#: The sections that make a camera's set-up (what ``lanefinder setup`` and ``lanefinder synth`` write).
+SETUP_SECTIONS = ("camera", "birdseye")
 #: The horizontal fields of view a lens may have, degrees (``camera.focal_px``, camera files):
 #: narrower or wider is a mistyped focal length, not a road camera.
 MIN_FOV_DEG, MAX_FOV_DEG = 2.0, 175.0
@@ -1258,8 +1261,14 @@ def load_config(path: str | Path | None) -> Config:
     return cfg
 
 
-def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml") -> str:
-    """Write a configuration out in full, as :func:`load_config` reads it.
+def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml",
+                sections: tuple[str, ...] | None = None) -> str:
+    """Write a configuration out, in full or some sections of it, as :func:`load_config` reads it.
+
+    A camera's set-up (``sections=("camera", "birdseye")``, as ``lanefinder setup`` and
+    ``lanefinder synth`` write it) leaves every other setting to the defaults of the
+    lanefinder that reads it: a file written in full pins them all at the writer's defaults,
+    and a later version that renamed one would refuse the file.
 
     Parameters
     ----------
@@ -1267,18 +1276,31 @@ def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml") -> s
         The configuration.
     fmt : {"toml", "yaml", "json"}
         The format.
+    sections : tuple of str, optional
+        Write only these sections (each in full); None: all of them.
 
     Returns
     -------
     str
         The text.
 
+    Raises
+    ------
+    ValueError
+        For a section the configuration does not have.
+
     Examples
     --------
     >>> print(dump_config(Config()).splitlines()[1])
     [camera]
+    >>> [line for line in dump_config(Config(), sections=("camera",)).splitlines() if line.startswith("[")]
+    ['[camera]']
     """
     data = cfg.model_dump(mode="json", exclude_none=True)  # None is "not set" (TOML has no null)
+    if sections is not None:
+        if unknown := [name for name in sections if name not in data]:
+            raise ValueError(f"no config section {', '.join(unknown)}; there are {', '.join(data)}")
+        data = {name: data[name] for name in data if name in sections}
     if fmt == "toml":
         import tomli_w
 

@@ -1712,7 +1712,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     lanefinder.errors.LaneFinderError: unknown scenario 'moon'; choose from straight, curve, ...
     """
     from .camera import udacity_camera
-    from .config import config_from_dict, dump_config
+    from .config import SETUP_SECTIONS, config_from_dict, dump_config
     from .events import detect_events, write_events
     from .video import VideoInfo, VideoSink
 
@@ -1756,7 +1756,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         atomic_write_text(out / "camera.json", json.dumps(replace(cam, views=()).to_dict(), indent=2) + "\n",
                           outputs=outs)
         cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
-        atomic_write_text(out / "config.toml", dump_config(cfg), outputs=outs)
+        atomic_write_text(out / "config.toml", dump_config(cfg, sections=SETUP_SECTIONS), outputs=outs)
         write_events(out / "events_gt.jsonl", detect_events(truth_rows, fps, cfg.events), outputs=outs)
         described = asdict(scenario)
         if not scenario.manoeuvres:
