@@ -54,3 +54,24 @@ def test_stills_pairs_refuses_a_report_of_other_footage(tmp_path):
                         str(tmp_path / "pairs")], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and "holds no frame 99999" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "pairs").exists() and not list(tmp_path.glob(".pairs*"))
+
+
+@pytest.mark.slow  # subprocesses that read a video
+@pytest.mark.parametrize(("args", "says"), [(["nope.mp4"], "video not found: nope.mp4"),
+                                            (["data/clips/project_37-47s.mp4", "--first", "5", "--last", "2"],
+                                             "0 <= first <= last"),
+                                            (["data/clips/project_37-47s.mp4", "--first", "9999", "--last", "9999"],
+                                             "has no frame 9999")])
+def test_selfcal_frames_refuses_bad_arguments_with_one_line(args, says):
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "selfcal_frames.py"), *args], capture_output=True,
+                       text=True, timeout=60, cwd=ROOT)
+    assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr
+
+
+@pytest.mark.slow
+def test_selfcal_frames_keeps_the_project_clips_set_up():
+    # The default set-up is right for the project video: an estimate on its first frames confirms it.
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "selfcal_frames.py"), "data/clips/project_37-47s.mp4",
+                        "--last", "8"], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    assert "an estimate on 4 frames" in p.stdout and "(+0.0 px), 0 change(s)" in p.stdout

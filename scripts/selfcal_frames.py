@@ -1,0 +1,81 @@
+"""What set-up would self-calibration take from these frames alone? (a diagnostic)
+
+    python scripts/selfcal_frames.py VIDEO [--first 0] [--last 300] [--config FILE]
+
+Offers the frames FIRST..LAST of VIDEO (and only those) to a fresh self-calibrator
+(:class:`lanefinder.selfcal.SelfCalibrator`), at its own cadence, as if every one read
+straight (no curvature gate: the pipeline skips frames it reads as curving tighter than
+``selfcal.skip_radius_m``). Prints each estimate it takes (frame, horizon row, camera height,
+the frames it rests on, its expected errors) and the set-up in use at the end, against the
+set-up the config starts from. On a hilly road an estimate resting on a few frames of one slope
+can move the horizon by tens of pixels (see README, Known limitations):
+
+    python scripts/selfcal_frames.py ../shared/data/udacity/videos/harder_challenge_video.mp4 --first 100 --last 110
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from lanefinder.config import load_config
+from lanefinder.errors import LaneFinderError
+from lanefinder.io import input_file
+from lanefinder.pipeline import LaneFinder
+from lanefinder.selfcal import SelfCalibrator
+from lanefinder.video import frames
+
+
+def probe(video: Path, first: int, last: int, config: Path | None) -> int:
+    """Offer frames ``first``..``last`` of ``video`` to a fresh self-calibrator and print what it takes."""
+    cfg = load_config(config)
+    finder = LaneFinder(cfg)
+    cal = None
+    start = math.nan
+    for f in frames(video):
+        if f.index < first:
+            continue
+        if f.index > last:
+            break
+        if cal is None:
+            be = finder.birdseye((f.image.shape[1], f.image.shape[0]))
+            cal = SelfCalibrator(cfg, be.camera, be)
+            start = cal.state.horizon_px
+            print(f"frames {first}-{last} of {video.name}; the config's set-up: horizon row {start:.1f}")
+        before = cal.state
+        taken = cal.offer(f.image, math.nan) is not None
+        q = cal.state.quality
+        if cal.state is not before and q is not None:  # an estimate was made
+            what = "takes it" if taken else "keeps the set-up in use"
+            print(f"frame {f.index}: an estimate on {q.frames_used} frames (expected error xm {q.xm_error_pct:.1f}%, "
+                  f"car {q.car_error_m:.3f} m); {what}: horizon row {cal.state.horizon_px:.1f}, camera "
+                  f"{cal.state.height_m:.2f} m over the road")
+    if cal is None:
+        raise LaneFinderError(f"{video} has no frame {first}")
+    s = cal.state
+    print(f"at the end: {s.source}, horizon row {s.horizon_px:.1f} ({s.horizon_px - start:+.1f} px), "
+          f"{s.updates} change(s)")
+    return 0
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("video", type=Path)
+    ap.add_argument("--first", type=int, default=0, help="first frame offered (0)")
+    ap.add_argument("--last", type=int, default=300, help="last frame offered (300)")
+    ap.add_argument("--config", type=Path, default=None, help="a config file (its set-up is the starting point)")
+    a = ap.parse_args()
+    try:
+        if not 0 <= a.first <= a.last:
+            raise LaneFinderError("--first and --last must be frame numbers with 0 <= first <= last")
+        input_file(a.video, "video")
+        return probe(a.video, a.first, a.last, a.config)
+    except LaneFinderError as e:
+        print(f"selfcal_frames: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
