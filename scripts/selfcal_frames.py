@@ -5,12 +5,14 @@
 Offers the frames FIRST..LAST of VIDEO (and only those) to a fresh self-calibrator
 (:class:`lanefinder.selfcal.SelfCalibrator`), at its own cadence, as if every one read
 straight (no curvature gate: the pipeline skips frames it reads as curving tighter than
-``selfcal.skip_radius_m``). Prints each estimate it takes (frame, horizon row, camera height,
-the frames it rests on, its expected errors) and the set-up in use at the end, against the
-set-up the config starts from. On a hilly road an estimate resting on a few frames of one slope
-can move the horizon by tens of pixels (see README, Known limitations):
+``selfcal.skip_radius_m``); a LAST past the video's end offers frames to its end. Prints every
+estimate it makes (frame, the frames it rests on, horizon row, camera height, expected errors,
+and whether it was taken, confirmed the set-up in use or was not sure enough), then the set-up
+in use at the end against the one the config starts from. On a hilly road an estimate resting
+on a few frames of one slope can move the horizon by tens of pixels (see README, Known
+limitations):
 
-    python scripts/selfcal_frames.py ../shared/data/udacity/videos/harder_challenge_video.mp4 --first 100 --last 110
+    python scripts/selfcal_frames.py ../shared/data/udacity/videos/harder_challenge_video.mp4 --first 100 --last 250
 """
 
 from __future__ import annotations
@@ -29,7 +31,27 @@ from lanefinder.video import frames
 
 
 def probe(video: Path, first: int, last: int, config: Path | None) -> int:
-    """Offer frames ``first``..``last`` of ``video`` to a fresh self-calibrator and print what it takes."""
+    """Offer frames ``first``..``last`` of ``video`` to a fresh self-calibrator and print every estimate.
+
+    Parameters
+    ----------
+    video : Path
+        The video.
+    first, last : int
+        The first and last frame offered (0-based; ``last`` past the end: to the end).
+    config : Path or None
+        A config file (its set-up is the starting point); None: the defaults.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    LaneFinderError
+        For a config that does not load, or a video that has no frame ``first``.
+    """
     cfg = load_config(config)
     finder = LaneFinder(cfg)
     cal = None
@@ -44,19 +66,21 @@ def probe(video: Path, first: int, last: int, config: Path | None) -> int:
             cal = SelfCalibrator(cfg, be.camera, be)
             start = cal.state.horizon_px
             print(f"frames {first}-{last} of {video.name}; the config's set-up: horizon row {start:.1f}")
-        before = cal.state
-        taken = cal.offer(f.image, math.nan) is not None
-        q = cal.state.quality
-        if cal.state is not before and q is not None:  # an estimate was made
-            what = "takes it" if taken else "keeps the set-up in use"
-            print(f"frame {f.index}: an estimate on {q.frames_used} frames (expected error xm {q.xm_error_pct:.1f}%, "
-                  f"car {q.car_error_m:.3f} m); {what}: horizon row {cal.state.horizon_px:.1f}, camera "
-                  f"{cal.state.height_m:.2f} m over the road")
+        before = cal.last_estimate
+        cal.offer(f.image, math.nan)
+        est = cal.last_estimate
+        if est is not None and est is not before and est.quality is not None:
+            q = est.quality
+            what = {"taken": "taken", "confirms": "confirms the set-up in use",
+                    "unsure": "not sure enough: the set-up in use stays"}[cal.last_verdict]
+            print(f"frame {f.index}: an estimate on {q.frames_used} frame{'s' * (q.frames_used != 1)}: horizon row "
+                  f"{est.horizon_px:.1f}, camera {est.height_m:.2f} m over the road (expected error xm "
+                  f"{q.xm_error_pct:.1f}%, car {q.car_error_m:.3f} m); {what}")
     if cal is None:
         raise LaneFinderError(f"{video} has no frame {first}")
     s = cal.state
     print(f"at the end: {s.source}, horizon row {s.horizon_px:.1f} ({s.horizon_px - start:+.1f} px), "
-          f"{s.updates} change(s)")
+          f"{s.updates} change{'s' * (s.updates != 1)}")
     return 0
 
 

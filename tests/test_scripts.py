@@ -74,4 +74,5 @@ def test_selfcal_frames_keeps_the_project_clips_set_up():
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "selfcal_frames.py"), "data/clips/project_37-47s.mp4",
                         "--last", "8"], capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert p.returncode == 0, p.stderr
-    assert "an estimate on 4 frames" in p.stdout and "(+0.0 px), 0 change(s)" in p.stdout
+    assert "an estimate on 4 frames: horizon row 41" in p.stdout and "confirms the set-up in use" in p.stdout
+    assert "(+0.0 px), 0 changes" in p.stdout

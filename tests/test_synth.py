@@ -95,7 +95,7 @@ def test_synth_command_writes_a_complete_sequence(tmp_path):
     import re
 
     text = (tmp_path / "config.toml").read_text()
-    assert set(re.findall(r"^\[([^].]+)", text, re.M)) == {"camera", "birdseye"}  # the set-up only
+    assert set(re.findall(r"^\[([^].]+)", text, re.M)) == {"camera", "birdseye", "events"}  # set-up, events' truth
     rows = [json.loads(x) for x in (tmp_path / "gt.jsonl").read_text().splitlines()]
     assert len(rows) == 3 and {"curvature_per_m", "radius_m", "offset_m", "width_m", "lanes", "h_samples",
                                "raw_file"} <= set(rows[0])

@@ -1276,8 +1276,8 @@ def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml",
         The configuration.
     fmt : {"toml", "yaml", "json"}
         The format.
-    sections : tuple of str, optional
-        Write only these sections (each in full); None: all of them.
+    sections : tuple of str or str, optional
+        Write only these sections (each in full); a string is one section; None: all of them.
 
     Returns
     -------
@@ -1297,6 +1297,8 @@ def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml",
     ['[camera]']
     """
     data = cfg.model_dump(mode="json", exclude_none=True)  # None is "not set" (TOML has no null)
+    if isinstance(sections, str):
+        sections = (sections,)
     if sections is not None:
         if unknown := [name for name in sections if name not in data]:
             raise ValueError(f"no config section {', '.join(unknown)}; there are {', '.join(data)}")

@@ -150,6 +150,12 @@ class SelfCalibrator:
     last_evidence : FrameEvidence or None
         What the last frame looked at showed (its vanishing point and ego lines, or why it was
         refused); None before the first.
+    last_estimate : SetupState or None
+        The last estimate made, as a set-up (its horizon, camera height and quality), whether
+        or not it was taken; None before the first.
+    last_verdict : str
+        What became of it: ``taken`` (it replaced the set-up in use), ``confirms`` (sure, and
+        reading the road as the set-up in use does) or ``unsure`` (neither); empty before the first.
 
     Examples
     --------
@@ -178,6 +184,8 @@ class SelfCalibrator:
                                  dash_period_m=self.cfg.dash_period_m)
         self._frames: deque = deque(maxlen=self.cfg.window_frames)
         self.last_evidence: FrameEvidence | None = None
+        self.last_estimate: SetupState | None = None
+        self.last_verdict = ""
         self._seen = 0
         self._new = 0
         self.state = SetupState.of("default", current)
@@ -295,6 +303,8 @@ class SelfCalibrator:
         # An estimate not sure enough neither replaces nor confirms the set-up: the source stays.
         source = "estimated" if sure_enough else self.state.source
         self.state = SetupState.of(source, use, frames=quality.frames_used, updates=updates, quality=quality)
+        self.last_estimate = SetupState.of("estimated", be, frames=quality.frames_used, quality=quality)
+        self.last_verdict = "taken" if differs else "confirms" if sure_enough else "unsure"
         if differs:
             self.current = be
             return be

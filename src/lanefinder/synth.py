@@ -1665,7 +1665,10 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     """Write a synthetic sequence: video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json.
 
     ``events_gt.jsonl`` holds the true lane events: :func:`lanefinder.events.detect_events`
-    with the config's ``events`` settings over the exact offset and width of every frame.
+    with the default ``events`` settings over the exact offset and width of every frame.
+    ``config.toml`` holds the sequence's set-up (``[camera]``, ``[birdseye]``) and those
+    ``[events]`` settings, so that its events are found with the settings its truth was; every
+    other setting is left to the defaults of the lanefinder that reads it.
 
     Parameters
     ----------
@@ -1756,7 +1759,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         atomic_write_text(out / "camera.json", json.dumps(replace(cam, views=()).to_dict(), indent=2) + "\n",
                           outputs=outs)
         cfg = config_from_dict({"camera": {"model": "camera.json"}, "birdseye": renderer.birdseye_config()})
-        atomic_write_text(out / "config.toml", dump_config(cfg, sections=SETUP_SECTIONS), outputs=outs)
+        atomic_write_text(out / "config.toml", dump_config(cfg, sections=(*SETUP_SECTIONS, "events")), outputs=outs)
         write_events(out / "events_gt.jsonl", detect_events(truth_rows, fps, cfg.events), outputs=outs)
         described = asdict(scenario)
         if not scenario.manoeuvres:
