@@ -1262,13 +1262,13 @@ def load_config(path: str | Path | None) -> Config:
 
 
 def dump_config(cfg: Config, fmt: Literal["toml", "yaml", "json"] = "toml",
-                sections: tuple[str, ...] | None = None) -> str:
+                sections: tuple[str, ...] | str | None = None) -> str:
     """Write a configuration out, in full or some sections of it, as :func:`load_config` reads it.
 
-    A camera's set-up (``sections=("camera", "birdseye")``, as ``lanefinder setup`` and
-    ``lanefinder synth`` write it) leaves every other setting to the defaults of the
-    lanefinder that reads it: a file written in full pins them all at the writer's defaults,
-    and a later version that renamed one would refuse the file.
+    A camera's set-up (``sections=SETUP_SECTIONS``, ``camera`` and ``birdseye``, as ``lanefinder
+    setup`` writes it; ``lanefinder synth`` adds ``events``) leaves every other setting to the
+    defaults of the lanefinder that reads it: a file written in full pins them all at the
+    writer's defaults, and a later version that renamed one would refuse the file.
 
     Parameters
     ----------
