@@ -67,7 +67,7 @@ LANE_WIDTH_M = 3.7
 VIEW_SIZE_PX = (400, 300)
 #: Pixels the lane spans across the default bird's-eye view, centred in it.
 LANE_SPAN_PX = 150.0
-#: The sections that make a camera's set-up (what ``lanefinder setup`` and ``lanefinder synth`` write).
+#: The sections that make a camera's set-up: what ``lanefinder setup`` writes (``lanefinder synth`` adds ``events``).
 SETUP_SECTIONS = ("camera", "birdseye")
 #: The horizontal fields of view a lens may have, degrees (``camera.focal_px``, camera files):
 #: narrower or wider is a mistyped focal length, not a road camera.
