@@ -1,17 +1,19 @@
 """Single stills against the tracked video: does `lanefinder image` (blind, no history) agree? (`make stills`)
 
-    python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--json output/stills/report.json]
-                                      [--config FILE]
+    python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--offset-s 0.5]
+                                      [--json output/stills/report.json] [--config FILE]
 
 For each of the three Udacity videos: the video is run once with tracking (telemetry only);
-then one frame a second (at 0.5 s, 1.5 s, ...) is found again as a still, blind, with no
-history, exactly as `lanefinder image` does. The tracked video's two lines are the reference
+then one frame a second (at 0.5 s, 1.5 s, ...; `--offset-s` moves them, to choose a setting on
+other stills than those reported) is found again as a still, blind, with no history, exactly as
+`lanefinder image` does. The tracked video's two lines are the reference
 (frames where the video shows no lane are left out and counted). A still *agrees* when each
 of the video's lines is matched by one of the still's lines by TuSimple's rule (20 px / cos(angle)
 per row, 85% of the rows), over the TuSimple rows where the video has the line. The table gives
 per video: stills compared, stills with a lane, stills that agree, and the mean TuSimple accuracy;
-the JSON report also lists every still (frame, time, and per set-up: lane, agreement, accuracy,
-the set-up used and the checks that fired).
+the JSON report also lists every still (frame, time, whether the video measured each of its
+lines there or drew it inferred or held, and per set-up: lane, agreement, accuracy, the set-up
+used and the checks that fired).
 
 Each still is found twice: with the default set-up (`lanefinder image` with no config, as a
 user with an unknown camera would run it) and with the camera's own set-up (`lanefinder setup
@@ -77,17 +79,18 @@ def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
             "setup": result.setup, "checks": list(result.checks)}
 
 
-def compare(src: Path, every_s: float, cfg: Config) -> dict:
+def compare(src: Path, every_s: float, cfg: Config, offset_s: float = 0.5) -> dict:
     """Agreement of blind stills with the tracked video for one video, with both set-ups."""
     reference = tracked(src, cfg)
     fps = float(VideoInfo.from_path(src).fps)
     step = max(1, round(every_s * fps))
+    first = round(offset_s * fps) % step
     finders = {"default": LaneFinder(cfg), "own": LaneFinder(own_setup(src, cfg))}
     n = no_reference = 0
     counts = {k: {"with_lane": 0, "agree": 0, "acc": 0.0} for k in finders}
     per_still: list[dict] = []
     for f in frames(src):
-        if f.index % step != step // 2:
+        if f.index % step != first:
             continue
         ref = reference.get(f.index)
         ref_lanes = [ref[k] for k in ("left_x", "right_x") if ref and any(v >= 0 for v in ref[k])]
@@ -95,7 +98,9 @@ def compare(src: Path, every_s: float, cfg: Config) -> dict:
             no_reference += 1
             continue
         n += 1
-        record: dict = {"frame": f.index, "time_s": round(f.index / fps, 2)}
+        record: dict = {"frame": f.index, "time_s": round(f.index / fps, 2),
+                        # whether the video measured each line at that frame (else it drew it inferred or held)
+                        "reference_measured": [bool(ref["left_found"]), bool(ref["right_found"])]}
         for name, finder in finders.items():
             s = record[name] = find_still(finder, f.image, ref, ref_lanes)
             c = counts[name]
@@ -115,6 +120,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--videos", type=Path, default=ROOT.parent / "shared" / "data" / "udacity" / "videos")
     ap.add_argument("--every-s", type=float, default=1.0)
+    ap.add_argument("--offset-s", type=float, default=0.5, help="time of the first still, s (0.5: the reported set)")
     ap.add_argument("--json", type=Path, default=ROOT / "output" / "stills" / "report.json")
     ap.add_argument("--config", type=Path, default=None, help="a config file for both the video and the stills")
     a = ap.parse_args()
@@ -131,7 +137,7 @@ def main() -> int:
         if not src.is_file():
             print(f"{name:<24} skipped: {src} not found")
             continue
-        r = compare(src, a.every_s, cfg)
+        r = compare(src, a.every_s, cfg, a.offset_s)
         report[name] = r
         for setup in ("default", "own"):
             c = r[setup]
@@ -140,8 +146,9 @@ def main() -> int:
                   f"{c['mean_accuracy'] or 0:>9.4f}", flush=True)
     a.json.parent.mkdir(parents=True, exist_ok=True)
     a.json.write_text(json.dumps(report, indent=2) + "\n")
-    print(f"\none still every {a.every_s:g} s; frames where the video shows no lane are left out; set-up 'default':"
-          f" the default set-up, 'own': `lanefinder setup --video` on that video; report: {a.json}")
+    print(f"\none still every {a.every_s:g} s from {a.offset_s:g} s; frames where the video shows no lane are left "
+          "out; set-up 'default': the default set-up, 'own': `lanefinder setup --video` on that video; "
+          f"report: {a.json}")
     return 0
 
 
