@@ -1,12 +1,12 @@
 """Single stills against the tracked video: does `lanefinder image` (blind, no history) agree? (`make stills`)
 
-    python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--offset-s 0.5]
+    python scripts/stills_vs_video.py [--videos DIR] [--every-s 1.0] [--offset-s S]
                                       [--json output/stills/report.json] [--config FILE]
 
 For each of the three Udacity videos: the video is run once with tracking (telemetry only);
-then one frame a second (at 0.5 s, 1.5 s, ...; `--offset-s` moves them, to choose a setting on
-other stills than those reported) is found again as a still, blind, with no history, exactly as
-`lanefinder image` does. The tracked video's two lines are the reference
+then one frame a second (the middle frame of each second, about 0.5 s, 1.5 s, ...; `--offset-s`
+moves them, to choose a setting on other stills than those reported) is found again as a still,
+blind, with no history, exactly as `lanefinder image` does. The tracked video's two lines are the reference
 (frames where the video shows no lane are left out and counted). A still *agrees* when each
 of the video's lines is matched by one of the still's lines by TuSimple's rule (20 px / cos(angle)
 per row, 85% of the rows), over the TuSimple rows where the video has the line. The table gives
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import tempfile
 from pathlib import Path
@@ -79,12 +80,13 @@ def find_still(finder: LaneFinder, image, ref: dict, ref_lanes: list) -> dict:
             "setup": result.setup, "checks": list(result.checks)}
 
 
-def compare(src: Path, every_s: float, cfg: Config, offset_s: float = 0.5) -> dict:
+def compare(src: Path, every_s: float, cfg: Config, offset_s: float | None = None) -> dict:
     """Agreement of blind stills with the tracked video for one video, with both set-ups."""
     reference = tracked(src, cfg)
     fps = float(VideoInfo.from_path(src).fps)
     step = max(1, round(every_s * fps))
-    first = round(offset_s * fps) % step
+    # the reported set: the middle frame of each step; an offset moves the first still to that time
+    first = step // 2 if offset_s is None else round(offset_s * fps) % step
     finders = {"default": LaneFinder(cfg), "own": LaneFinder(own_setup(src, cfg))}
     n = no_reference = 0
     counts = {k: {"with_lane": 0, "agree": 0, "acc": 0.0} for k in finders}
@@ -109,7 +111,8 @@ def compare(src: Path, every_s: float, cfg: Config, offset_s: float = 0.5) -> di
             c["acc"] += s["accuracy"]
             s["accuracy"] = round(s["accuracy"], 4)
         per_still.append(record)
-    out: dict = {"stills": n, "no_reference": no_reference, "per_still": per_still}
+    out: dict = {"stills": n, "no_reference": no_reference, "every_s": every_s,
+                 "offset_s": round(first / fps, 3), "per_still": per_still}
     for name, c in counts.items():
         out[name] = {"with_lane": c["with_lane"], "agree": c["agree"], "agree_share": c["agree"] / n if n else None,
                      "mean_accuracy": c["acc"] / n if n else None}
@@ -120,10 +123,16 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--videos", type=Path, default=ROOT.parent / "shared" / "data" / "udacity" / "videos")
     ap.add_argument("--every-s", type=float, default=1.0)
-    ap.add_argument("--offset-s", type=float, default=0.5, help="time of the first still, s (0.5: the reported set)")
+    ap.add_argument("--offset-s", type=float, default=None,
+                    help="time of the first still, s, 0 <= S < every-s (default: the middle frame of each step, "
+                         "the reported set)")
     ap.add_argument("--json", type=Path, default=ROOT / "output" / "stills" / "report.json")
     ap.add_argument("--config", type=Path, default=None, help="a config file for both the video and the stills")
     a = ap.parse_args()
+    if not (math.isfinite(a.every_s) and a.every_s > 0):
+        ap.error(f"--every-s must be a positive number of seconds, got {a.every_s:g}")
+    if a.offset_s is not None and not (math.isfinite(a.offset_s) and 0 <= a.offset_s < a.every_s):
+        ap.error(f"--offset-s must be at least 0 and less than --every-s ({a.every_s:g} s), got {a.offset_s:g}")
     try:
         cfg = load_config(a.config)
     except LaneFinderError as e:
@@ -146,7 +155,8 @@ def main() -> int:
                   f"{c['mean_accuracy'] or 0:>9.4f}", flush=True)
     a.json.parent.mkdir(parents=True, exist_ok=True)
     a.json.write_text(json.dumps(report, indent=2) + "\n")
-    print(f"\none still every {a.every_s:g} s from {a.offset_s:g} s; frames where the video shows no lane are left "
+    start = "the middle of each step" if a.offset_s is None else f"{a.offset_s:g} s"
+    print(f"\none still every {a.every_s:g} s from {start}; frames where the video shows no lane are left "
           "out; set-up 'default': the default set-up, 'own': `lanefinder setup --video` on that video; "
           f"report: {a.json}")
     return 0
