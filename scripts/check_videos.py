@@ -4,7 +4,8 @@
 
 Per video: frames; % of frames with a lane shown (measured, or held by the tracker) and %
 with both lines measured and accepted; lane width mean and std (m); the largest frame-to-frame offset jump (m);
-the median radius over each curve; frames per second end to end.  Outputs (annotated video,
+the median radius over each curve; frames per second end to end; the checks that refused lines most
+often on frames without both lines (the telemetry's `checks` column).  Outputs (annotated video,
 telemetry, contact sheet) go under --out.  Exit status 2 when the videos are absent.
 
 The contact sheet has --sheet-frames frames (40, as issue 12 asks: no frame of it with a drawn
@@ -69,7 +70,8 @@ def main() -> int:
                           contact_sheet_path=a.out / f"{name}_sheet.png", sheet_frames=a.sheet_frames,
                           progress=False)
         sheet_frames_full_size(a.out / f"{name}.mp4", a.out / f"{name}_sheet", s.sheet_frames)
-        st = video_stats(read_telemetry(tele))
+        rows = read_telemetry(tele)
+        st = video_stats(rows)
         st["fps"] = s.fps
         st["redetections"] = s.redetections
         report[name] = st
@@ -79,6 +81,11 @@ def main() -> int:
               f"lost {st['lost_pct']:.1f}%")
         print(f"lane width {st['width_mean_m']:.3f} m mean, {st['width_std_m']:.3f} m std")
         print(f"largest frame-to-frame offset jump {st['max_offset_jump_m']:.3f} m")
+        unseen = sum(1 for r in rows if not (r["left_found"] and r["right_found"]) and not r.get("checks"))
+        why = [f"{k} {v['not_both']}" for k, v in st["checks"].items() if v["not_both"]][:6]
+        if why or unseen:
+            print(f"checks on frames without both lines (frames): {', '.join(why) or 'none'}; "
+                  f"no check, a line not there at all: {unseen}")
         for c in st["curves"]:
             print(f"  {c['side']:<5} curve {c['from_s']:6.2f}-{c['to_s']:6.2f} s: median radius "
                   f"{c['median_radius_m']:.0f} m")

@@ -485,3 +485,26 @@ def test_a_finder_knows_when_it_last_measured_a_still(test_images):
     assert finder.find_as_still(image).lane_found and finder.last_still
     with pytest.raises(LaneFinderError, match="self-calibrate"):
         LaneFinder(self_calibrate=True).find_as_still(image)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".jsonl", ".parquet"])
+def test_telemetry_says_which_checks_refused_something(tmp_path, suffix):
+    from dataclasses import replace
+
+    from lanefinder.stats import check_counts
+    from lanefinder.telemetry import TelemetryWriter, make_row, read_telemetry
+
+    # A frame whose lines were refused, and one with nothing refused: the names come back as
+    # written, comma-separated, and nothing refused is "" (not missing), in every format.
+    finder = LaneFinder()
+    be = finder.birdseye((1280, 720))
+    r = finder.process(np.zeros((720, 1280, 3), np.uint8))
+    refused = replace(r, checks=("left-jump", "offset"))
+    path = tmp_path / f"t{suffix}"
+    with TelemetryWriter(path) as w:
+        w.write(make_row(0, 0.0, refused, be))
+        w.write(make_row(1, 0.04, replace(r, checks=()), be))
+    rows = read_telemetry(path)
+    assert [row["checks"] for row in rows] == ["left-jump,offset", ""]
+    assert check_counts(rows) == {"left-jump": {"frames": 1, "not_both": 1, "lost": int(r.state == "lost")},
+                                  "offset": {"frames": 1, "not_both": 1, "lost": int(r.state == "lost")}}

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "check_counts",
     "curves",
     "lane_shares",
     "video_stats",
@@ -57,6 +58,44 @@ def curves(rows: list[dict], min_s: float = 2.0, straight_m: float = 3000.0) -> 
              "median_radius_m": float(np.median([r["radius_m"] for r in c["rows"]]))} for c in out]
 
 
+def check_counts(rows: list[dict]) -> dict[str, dict[str, int]]:
+    """Count, per named check, the frames it refused something on: why lines go unmeasured.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Telemetry rows with their ``checks`` (comma-separated names; rows of files written
+        before that column are left out), ``state`` and ``*_found``.
+
+    Returns
+    -------
+    dict
+        Per check name, most frames without both lines first: ``frames`` (every frame it
+        fired on), ``not_both`` (of those, frames without both lines measured) and ``lost``
+        (frames that show no lane).
+
+    Examples
+    --------
+    >>> rows = [{"checks": "left-jump,offset", "state": "lost", "left_found": False, "right_found": False},
+    ...         {"checks": "left-jump", "state": "tracking", "left_found": False, "right_found": True},
+    ...         {"checks": "", "state": "tracking", "left_found": True, "right_found": True}]
+    >>> check_counts(rows)
+    {'left-jump': {'frames': 2, 'not_both': 2, 'lost': 1}, 'offset': {'frames': 1, 'not_both': 1, 'lost': 1}}
+    """
+    out: dict[str, dict[str, int]] = {}
+    for r in rows:
+        names = r.get("checks")
+        if not names:
+            continue
+        both = bool(r.get("left_found")) and bool(r.get("right_found"))
+        for name in dict.fromkeys(names.split(",")):
+            c = out.setdefault(name, {"frames": 0, "not_both": 0, "lost": 0})
+            c["frames"] += 1
+            c["not_both"] += not both
+            c["lost"] += r.get("state") == "lost"
+    return dict(sorted(out.items(), key=lambda kv: (-kv[1]["not_both"], -kv[1]["frames"], kv[0])))
+
+
 def video_stats(rows: list[dict]) -> dict[str, Any]:
     """Summarise a run's telemetry rows.
 
@@ -71,7 +110,7 @@ def video_stats(rows: list[dict]) -> dict[str, Any]:
         ``frames``; ``tracked_pct``, ``both_seen_pct`` and ``lost_pct`` (% of frames with a
         lane, with both lines measured, lost); ``width_mean_m`` and ``width_std_m`` (m);
         ``max_offset_jump_m`` (largest frame-to-frame change of the offset, m); ``curves``
-        (see :func:`curves`).
+        (see :func:`curves`); ``checks`` (see :func:`check_counts`).
 
     Examples
     --------
@@ -98,6 +137,7 @@ def video_stats(rows: list[dict]) -> dict[str, Any]:
         "width_std_m": float(width.std()) if width.size else float("nan"),
         "max_offset_jump_m": float(np.nanmax(jumps)) if np.isfinite(jumps).any() else float("nan"),
         "curves": curves(rows),
+        "checks": check_counts(rows),
     }
 
 

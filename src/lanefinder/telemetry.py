@@ -5,7 +5,9 @@ time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf
 radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m, left_fit_px,
 right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m, left_x_conf, right_x_conf,
 setup (config, default, first-frame, estimated, or lines for a still: see :mod:`lanefinder.selfcal`), horizon_px and
-camera_height_m (the set-up in use: its horizon row and the camera height it implies).
+camera_height_m (the set-up in use: its horizon row and the camera height it implies), and checks
+(the named checks that refused a line or a lane that frame, comma-separated, empty when none:
+:data:`lanefinder.lane.LaneResult.checks`; files written before it have no such column).
 
 The per-line fields (``left_*``/``right_*``) come from each side's
 :class:`~lanefinder.lane.Line` through one table, :data:`LINE_FIELDS`.  ``left_x``/``right_x``
@@ -68,9 +70,9 @@ LINE_FIELDS = ("found", "inferred", "conf", "fit_m", "fit_px", "x", "range_m", "
 FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *_paired("conf"),
           "radius_m", "curvature_per_m", "offset_m", "width_m", "misses", *_paired("fit_m"), *_paired("fit_px"),
           "h_samples", *_paired("x"), *_paired("range_m"), *_paired("x_conf"),
-          "setup", "horizon_px", "camera_height_m"]
-#: Columns that hold text.
-TEXT_FIELDS = {"state", "setup"}
+          "setup", "horizon_px", "camera_height_m", "checks"]
+#: Columns that hold text (an empty one is read back as "", not None).
+TEXT_FIELDS = {"state", "setup", "checks"}
 LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x"), *_paired("x_conf")}
 _DEFAULT_DECAY_M = FarConfig().confidence_decay_m
 BOOL_FIELDS = {*_paired("found"), *_paired("inferred")}
@@ -387,7 +389,7 @@ def lane_row(r: LaneResult, be: BirdsEye, decay_m: float = _DEFAULT_DECAY_M,
     out.update({"radius_m": _num(r.radius_m, 2), "curvature_per_m": _num(r.curvature_per_m, 7),
                 "offset_m": _num(r.offset_m, 4), "width_m": _num(r.width_m, 4), "misses": r.misses,
                 "h_samples": rows, "setup": r.setup, "horizon_px": _num(horizon, 1),
-                "camera_height_m": _num(height, 3)})
+                "camera_height_m": _num(height, 3), "checks": ",".join(r.checks)})
     return {k: out[k] for k in FIELDS[2:]}
 
 
@@ -558,6 +560,8 @@ _NUMBER_FIELDS = [f for f in FIELDS if f not in LIST_FIELDS and f not in BOOL_FI
 
 
 def _parse_csv_value(key: str, v: str):
+    if key in TEXT_FIELDS:
+        return v
     if v == "":
         return None
     if key in LIST_FIELDS:
@@ -566,8 +570,6 @@ def _parse_csv_value(key: str, v: str):
         return v == "True"
     if key in ("frame", "misses"):
         return int(v)
-    if key in TEXT_FIELDS:
-        return v
     try:
         return float(v)
     except ValueError:
