@@ -27,7 +27,7 @@ from lanefinder.errors import LaneFinderError
 from lanefinder.io import input_file
 from lanefinder.pipeline import LaneFinder
 from lanefinder.selfcal import SelfCalibrator
-from lanefinder.video import frames
+from lanefinder.video import VideoInfo, frames
 
 
 def probe(video: Path, first: int, last: int, config: Path | None) -> int:
@@ -56,7 +56,9 @@ def probe(video: Path, first: int, last: int, config: Path | None) -> int:
     finder = LaneFinder(cfg)
     cal = None
     start = math.nan
-    for f in frames(video):
+    fps = VideoInfo.from_path(video).fps
+    # Seek to a frame before FIRST (a FIRST past the end is then told at once, not after decoding the video).
+    for f in frames(video, start_s=max(0.0, (first - 1) / fps) if fps > 0 else 0.0):
         if f.index < first:
             continue
         if f.index > last:
