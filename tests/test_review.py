@@ -17,6 +17,7 @@ import pytest
 
 from lanefinder import Config, load_config
 from lanefinder.review import MAX_BODY_BYTES, Review, create_app
+from lanefinder.telemetry import read_telemetry
 
 from conftest import CLIPS, ROOT
 
@@ -56,6 +57,9 @@ def test_api_lists_the_fleet_and_serves_frames(client):
     assert videos["broken"]["status"] == "failed" and videos["harder"]["frames"] == 100
     info = client.get("/api/videos/challenge").json()
     assert info["frames"] == 120 and len(info["series"]["offset_m"]) == 120 and info["events"]
+    # Why the run refused lines, per frame (the telemetry's checks): text, "" where nothing was refused.
+    harder = client.get("/api/videos/harder").json()["series"]["checks"]
+    assert len(harder) == 100 and all(isinstance(c, str) for c in harder) and any(harder) and not all(harder)
     r = client.get("/api/videos/harder/frames/50.jpg")
     assert r.status_code == 200 and r.headers["content-type"] == "image/jpeg" and r.content[:2] == b"\xff\xd8"
     r = client.post("/api/videos/harder/frames/50/inspect", json={"config": {"threshold.ridge.min_contrast": 30}})
@@ -239,6 +243,11 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
     page.wait_for_function(f"document.getElementById('slider').value === '{target}'")
     assert page.locator("#frame").get_attribute("src").endswith(f"/frames/{target}.jpg")
     page.wait_for_function(f"document.getElementById('status').textContent.startsWith('frame {target} ')")
+    # Under the frame, what the tracked run said there: its state and the checks that refused something.
+    run = {r["frame"]: r for p in sorted((fleet_dir / "telemetry" / "video=challenge").glob("*.parquet"))
+           for r in read_telemetry(p)}[int(target)]
+    said = f"the run: {run['state']}" + (f"; checks: {', '.join(run['checks'].split(','))}" if run["checks"] else "")
+    assert page.locator("#run-label").text_content() == said
     page.screenshot(path=str(SHOTS / "review_video.png"))
     # Change a threshold: the binary image changes.
     before = page.locator("#stage-2_binary").get_attribute("src")

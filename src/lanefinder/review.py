@@ -49,7 +49,8 @@ _CACHE_FRAMES = 16
 # Seeking is to a keyframe; a frame this few ahead of the last one decoded is reached by decoding on.
 _DECODE_ON_FRAMES = 90
 _JPEG_QUALITY = 85
-_SERIES = ("time_s", "state", "offset_m", "radius_m", "width_m", "left_conf", "right_conf")
+# Per-frame telemetry the page gets for a video (``checks``: None in files written before that column).
+_SERIES = ("time_s", "state", "offset_m", "radius_m", "width_m", "left_conf", "right_conf", "checks")
 
 
 class FrameReader:

@@ -67,6 +67,7 @@ async function openVideo(id, frame) {
   if (!state.video || state.video.video !== id) {
     $("video-title").textContent = id;
     state.video = await api(`/api/videos/${encodeURIComponent(id)}`);
+    state.rowOf = new Map(state.video.series.frame.map((f, i) => [f, i]));  // frame -> telemetry row
     state.src = null;
     $("slider").max = state.video.frames - 1;
     renderEvents();
@@ -85,6 +86,7 @@ function seek(frame) {
   if (v.source) $("frame").src = `/api/videos/${encodeURIComponent(v.video)}/frames/${frame}.jpg`;
   else $("frame").alt = "the source video is not readable here: the plots and events still are";
   $("frame-label").textContent = `frame ${frame} / ${v.frames - 1}, ${timeOf(frame).toFixed(2)} s`;
+  $("run-label").textContent = runSays(frame);
   $("frame").dataset.frame = frame;
   if (window.Plotly && $("plots").data) {
     Plotly.relayout("plots", { "shapes[0].x0": timeOf(frame), "shapes[0].x1": timeOf(frame) });
@@ -237,6 +239,14 @@ let inspectTimer = null;
 function scheduleInspect() {
   clearTimeout(inspectTimer);
   inspectTimer = setTimeout(inspect, 150);
+}
+
+// What the tracked run said at a frame: its state and the checks that refused something there.
+function runSays(frame) {
+  const s = state.video.series, i = state.rowOf.get(frame);
+  if (i === undefined) return "the run: no telemetry row";
+  const checks = s.checks[i];
+  return `the run: ${s.state[i]}` + (checks ? `; checks: ${checks.split(",").join(", ")}` : "");
 }
 
 function body() {
