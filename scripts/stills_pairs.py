@@ -67,7 +67,9 @@ def pairs(report: dict, videos: Path, out: Path, seed: int) -> dict:
             raise LaneFinderError(f"video not found: {videos / f'{name}.mp4'}")
     for name, wanted in todo.items():
         src = videos / f"{name}.mp4"
-        reference = tracked(src, cfg)
+        reference = tracked(src, cfg)  # a row for every frame the video holds
+        if missing := wanted - set(reference):
+            raise LaneFinderError(f"{src} holds no frame {min(missing)}: is the report from these videos?")
         finder = LaneFinder(cfg)
         for f in frames(src):
             if f.index not in wanted:
@@ -75,8 +77,6 @@ def pairs(report: dict, videos: Path, out: Path, seed: int) -> dict:
             _, still = still_row(finder, f.image)  # as `make stills` scores it
             order = ["still", "video"]
             rng.shuffle(order)
-            if f.index not in reference:
-                raise LaneFinderError(f"the tracked video has no row for frame {f.index}")
             panels = [_draw(f.image, still if who == "still" else reference[f.index], label)
                       for label, who in zip("AB", order, strict=True)]
             file = f"{name}_{f.index:04d}.png"
