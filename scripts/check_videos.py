@@ -20,7 +20,7 @@ import json
 import sys
 from pathlib import Path
 
-from lanefinder.stats import video_stats
+from lanefinder.stats import unchecked_frames, video_stats
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
@@ -81,7 +81,7 @@ def main() -> int:
               f"lost {st['lost_pct']:.1f}%")
         print(f"lane width {st['width_mean_m']:.3f} m mean, {st['width_std_m']:.3f} m std")
         print(f"largest frame-to-frame offset jump {st['max_offset_jump_m']:.3f} m")
-        unseen = sum(1 for r in rows if not (r["left_found"] and r["right_found"]) and not r.get("checks"))
+        unseen = unchecked_frames(rows)
         why = [f"{k} {v['not_both']}" for k, v in st["checks"].items() if v["not_both"]][:6]
         if why or unseen:
             print(f"checks on frames without both lines (frames): {', '.join(why) or 'none'}; "

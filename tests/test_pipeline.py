@@ -508,3 +508,12 @@ def test_telemetry_says_which_checks_refused_something(tmp_path, suffix):
     assert [row["checks"] for row in rows] == ["left-jump,offset", ""]
     assert check_counts(rows) == {"left-jump": {"frames": 1, "not_both": 1, "lost": int(r.state == "lost")},
                                   "offset": {"frames": 1, "not_both": 1, "lost": int(r.state == "lost")}}
+
+
+def test_an_empty_state_in_a_csv_is_missing_but_an_empty_checks_is_none_fired(tmp_path):
+    from lanefinder.telemetry import read_telemetry
+
+    (tmp_path / "t.csv").write_text("frame,state,setup,checks\n0,,,\n1,tracking,config,left-jump\n")
+    rows = read_telemetry(tmp_path / "t.csv")
+    assert (rows[0]["state"], rows[0]["setup"], rows[0]["checks"]) == (None, None, "")
+    assert (rows[1]["state"], rows[1]["checks"]) == ("tracking", "left-jump")

@@ -350,3 +350,27 @@ def test_ctrl_c_stops_a_review_cleanly(tmp_path):
     finally:
         p.kill()
     assert p.returncode == 0 and "review stopped" in out and not err.strip(), (p.returncode, out, err)
+
+
+def test_telemetry_written_before_the_checks_column_is_reviewed_without_them(tmp_path):
+    import csv
+
+    from fastapi.testclient import TestClient
+
+    from lanefinder.stats import check_counts, unchecked_frames
+    from lanefinder.videojob import process_video
+
+    # An older run's CSV: no checks column, so the page says none were recorded (null), not "none fired".
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    process_video(tmp_path / "h.mp4", None, telemetry=tmp_path / "new.csv", progress=False, max_frames=5)
+    with open(tmp_path / "new.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    with open(tmp_path / "h.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=[k for k in rows[0] if k != "checks"], extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    series = TestClient(create_app(Review(tmp_path / "h.mp4"))).get("/api/videos/h").json()["series"]
+    assert series["checks"] == [None] * 5 and series["state"][0] == "re-detect"
+    old = read_telemetry(tmp_path / "h.csv")
+    assert check_counts(old) == {} and unchecked_frames(old) is None
+    assert all(isinstance(r["checks"], str) for r in read_telemetry(tmp_path / "new.csv"))

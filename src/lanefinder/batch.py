@@ -41,6 +41,7 @@ from . import __version__
 from .config import Config, dump_config
 from .errors import LaneFinderError, NoFramesError
 from .stats import lane_shares
+from .telemetry import FIELDS
 
 __all__ = [
     "VIDEO_SUFFIXES",
@@ -359,7 +360,10 @@ def content_hash(url: str) -> str:
 
 
 def config_hash(cfg: Config) -> str:
-    """Hash a configuration, the camera file it names, and the lanefinder version.
+    """Hash a configuration, the camera file it names, the lanefinder version and the telemetry's columns.
+
+    (A batch re-run redoes what an earlier run wrote with other columns, so a dataset's parts
+    always share one schema.)
 
     Parameters
     ----------
@@ -376,7 +380,7 @@ def config_hash(cfg: Config) -> str:
     >>> config_hash(Config()) == config_hash(Config())
     True
     """
-    h = hashlib.blake2b(f"{__version__}\n{dump_config(cfg, 'json')}".encode(), digest_size=8)
+    h = hashlib.blake2b(f"{__version__}\n{','.join(FIELDS)}\n{dump_config(cfg, 'json')}".encode(), digest_size=8)
     camera = Path(cfg.camera.model)
     if cfg.camera.model not in ("udacity", "none") and camera.is_file():
         h.update(camera.read_bytes())  # a camera calibrated again is a changed config

@@ -14,6 +14,7 @@ __all__ = [
     "check_counts",
     "curves",
     "lane_shares",
+    "unchecked_frames",
     "video_stats",
 ]
 
@@ -87,13 +88,43 @@ def check_counts(rows: list[dict]) -> dict[str, dict[str, int]]:
         names = r.get("checks")
         if not names:
             continue
-        both = bool(r.get("left_found")) and bool(r.get("right_found"))
+        both = _both(r)
         for name in dict.fromkeys(names.split(",")):
             c = out.setdefault(name, {"frames": 0, "not_both": 0, "lost": 0})
             c["frames"] += 1
             c["not_both"] += not both
             c["lost"] += r.get("state") == "lost"
     return dict(sorted(out.items(), key=lambda kv: (-kv[1]["not_both"], -kv[1]["frames"], kv[0])))
+
+
+def unchecked_frames(rows: list[dict]) -> int | None:
+    """Count the frames without both lines measured where no check fired: a line not there at all.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Telemetry rows (``checks``, ``*_found``).
+
+    Returns
+    -------
+    int or None
+        The count; None when the rows have no ``checks`` (files written before that column).
+
+    Examples
+    --------
+    >>> unchecked_frames([{"checks": "", "left_found": True, "right_found": False},
+    ...                   {"checks": "left-jump", "left_found": False, "right_found": True}])
+    1
+    >>> unchecked_frames([{"left_found": True, "right_found": False}]) is None
+    True
+    """
+    if not any("checks" in r for r in rows):
+        return None
+    return sum(1 for r in rows if not _both(r) and not r.get("checks"))
+
+
+def _both(row: dict) -> bool:
+    return bool(row.get("left_found")) and bool(row.get("right_found"))
 
 
 def video_stats(rows: list[dict]) -> dict[str, Any]:

@@ -71,7 +71,7 @@ FIELDS = ["frame", "time_s", "state", *_paired("found"), *_paired("inferred"), *
           "radius_m", "curvature_per_m", "offset_m", "width_m", "misses", *_paired("fit_m"), *_paired("fit_px"),
           "h_samples", *_paired("x"), *_paired("range_m"), *_paired("x_conf"),
           "setup", "horizon_px", "camera_height_m", "checks"]
-#: Columns that hold text (an empty one is read back as "", not None).
+#: Columns that hold text.
 TEXT_FIELDS = {"state", "setup", "checks"}
 LIST_FIELDS = {*_paired("fit_m"), *_paired("fit_px"), "h_samples", *_paired("x"), *_paired("x_conf")}
 _DEFAULT_DECAY_M = FarConfig().confidence_decay_m
@@ -560,10 +560,10 @@ _NUMBER_FIELDS = [f for f in FIELDS if f not in LIST_FIELDS and f not in BOOL_FI
 
 
 def _parse_csv_value(key: str, v: str):
+    if v == "":
+        return "" if key == "checks" else None  # no check fired: empty text, as in JSONL and Parquet
     if key in TEXT_FIELDS:
         return v
-    if v == "":
-        return None
     if key in LIST_FIELDS:
         return json.loads(v)
     if key in BOOL_FIELDS:

@@ -245,8 +245,9 @@ function scheduleInspect() {
 function runSays(frame) {
   const s = state.video.series, i = state.rowOf.get(frame);
   if (i === undefined) return "the run: no telemetry row";
-  const checks = s.checks[i];
-  return `the run: ${s.state[i]}` + (checks ? `; checks: ${checks.split(",").join(", ")}` : "");
+  const checks = s.checks[i];  // null: telemetry written before the checks column
+  const why = checks === null ? "; checks not recorded" : checks ? `; checks: ${checks.split(",").join(", ")}` : "";
+  return `the run: ${s.state[i]}${why}`;
 }
 
 function body() {
