@@ -7,7 +7,7 @@ right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m, left_x_co
 setup (config, default, first-frame, estimated, or lines for a still: see :mod:`lanefinder.selfcal`), horizon_px and
 camera_height_m (the set-up in use: its horizon row and the camera height it implies), and checks
 (the named checks that refused a line or a lane that frame, comma-separated, empty when none:
-:data:`lanefinder.lane.LaneResult.checks`; files written before it have no such column).
+:attr:`lanefinder.lane.LaneResult.checks`; files written before it have no such column).
 
 The per-line fields (``left_*``/``right_*``) come from each side's
 :class:`~lanefinder.lane.Line` through one table, :data:`LINE_FIELDS`.  ``left_x``/``right_x``
