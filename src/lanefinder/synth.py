@@ -876,6 +876,10 @@ class Renderer:
         self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band, self.rays = _ground_samples(
             camera, self.rot, mount.height_m, supersample, self.hills)
         self.size, self.s = (w, h), supersample
+        # On a level road every frame meets the road at the same distances: zero where there is none.
+        self.Zc = None if self.hills else np.where(self.ground, self.Z, 0).astype(np.float32)
+        if self.Zc is not None:
+            self.Zc.flags.writeable = False  # shared by every frame
 
     @property
     def oncoming_lane(self) -> bool:
@@ -1300,7 +1304,12 @@ class Renderer:
     def _tex(self, a: np.ndarray, b: np.ndarray, tile: np.ndarray, sa: float, sb: float) -> np.ndarray:
         m = tile.shape[0] - 1  # tiles are a power of two wide: "& m" is "% (m + 1)", also below zero
         with np.errstate(invalid="ignore"):  # near the horizon of a sharp curve, past int32: any texel does
-            return tile[(a * sa).astype(np.int32) & m, (b * sb).astype(np.int32) & m]
+            i, j = (a * sa).astype(np.int32), (b * sb).astype(np.int32)
+        i &= m
+        i *= tile.shape[1]
+        j &= m
+        i += j
+        return tile.ravel().take(i)  # tile[i & m, j & m], as one gather from the flat tile
 
     def render(self, t: float) -> np.ndarray:
         """Render the distorted frame at a time.
@@ -1323,7 +1332,9 @@ class Renderer:
             ground = np.isfinite(hit)
             hit = np.where(ground, hit, 0).astype(np.float32)
             X, Z = hit * self.rays[0], hit * self.rays[2]
-        Zc = np.where(ground, Z, 0).astype(np.float32)
+            Zc = np.where(ground, Z, 0).astype(np.float32)
+        else:
+            Zc = self.Zc
         xc = self.centre(g, Zc).astype(np.float32)
         rel = (X - xc).astype(np.float32)  # lateral position relative to the lane centre
         u = (Zc + g["travelled"]).astype(np.float32)  # distance along the road, anchored to it
