@@ -106,7 +106,7 @@ class BlownOut:
     rows : tuple of int
         The frame rows looked at.
     lit : (len(rows), W + 1) int32 ndarray
-        Per row, the running count of pixels that are not blown out (0 first).
+        Per row, the running count of pixels that are not blown out (0 first); read-only.
 
     Examples
     --------
@@ -146,11 +146,15 @@ class BlownOut:
         h, w = frame.shape[:2]
         inside = [min(max(int(r), 0), h - 1) for r in rows]
         blown = blown_out(np.ascontiguousarray(frame[inside]))  # 255 where blown out
+        if not blown.any():  # the common case: every pixel lit, the counts are 0..W on every row (read-only)
+            return cls(tuple(int(r) for r in rows), np.broadcast_to(np.arange(w + 1, dtype=np.int32),
+                                                                    (len(rows), w + 1)))
         lit = np.zeros((len(rows), w + 1), np.int32)
         np.cumsum(blown == 0, axis=1, out=lit[:, 1:])
         for i, r in enumerate(rows):
             if not 0 <= r < h:
                 lit[i, 1:] = np.arange(1, w + 1)
+        lit.flags.writeable = False
         return cls(tuple(int(r) for r in rows), lit)
 
     def across(self, xs: list[float], half_px: list[int]) -> np.ndarray:
