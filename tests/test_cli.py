@@ -12,7 +12,9 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import CAL, TEST_IMAGES
+from conftest import CAL, CLIPS, TEST_IMAGES
+
+CLIP = CLIPS / "project_37-47s.mp4"
 
 # Every test here runs the command in a subprocess (0.2-2 s each).
 pytestmark = pytest.mark.slow
@@ -186,6 +188,8 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         # a lens whose distortion shrinks the frame to a point, and frames too large to render
         (["synth", "--frames", "1", "--camera", "cam.json", "-o", "seq"], "dist_coeffs do not describe a lens"),
         (["synth", "--frames", "1", "--camera", "big.json", "-o", "seq"], "needs about"),
+        # a contact sheet's size without the sheet
+        (["video", str(CLIP), "--telemetry", "t.jsonl", "--sheet-frames", "40"], "needs --contact-sheet"),
     ],
 )
 def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, args, needle):
@@ -204,6 +208,15 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     before = sorted(p.name for p in tmp_path.iterdir())
     assert_one_line_error(run(*args, cwd=tmp_path), needle)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+
+
+def test_a_contact_sheet_of_as_many_frames_as_asked(tmp_path):
+    p = run("video", str(CLIP), "--telemetry", "t.csv", "--contact-sheet", "s.png", "--sheet-frames", "12",
+            "--end", "1", "--quiet", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    sheet = cv2.imread(str(tmp_path / "s.png"))
+    one = (sheet.shape[0] - 4) // 3  # 12 thumbnails, 5 a row: 3 rows of one height (and the 4 px gaps)
+    assert sheet.shape[0] == 3 * one + 4 and abs(one / (sheet.shape[1] - 4) * 5 - 720 / 1280) < 0.05
 
 
 def test_eval_reads_parquet_telemetry_and_names_its_row(tmp_path):

@@ -276,6 +276,8 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 @click.option("--telemetry", type=click.Path(), help="Per-frame numbers: .csv, .jsonl or .parquet (typed columns).")
 @click.option("--debug", is_flag=True, help="Picture-in-picture of the bird's-eye search in every frame.")
 @click.option("--contact-sheet", "sheet", type=click.Path(), help="Write a PNG grid of frames spread over the run.")
+@click.option("--sheet-frames", type=click.IntRange(1, 200), default=None,
+              help="Frames on the contact sheet, evenly spread (default 20).")
 @click.option("--preset", type=click.Choice(["ultrafast", "superfast", "veryfast", "faster", "fast", "medium"]),
               help="x264 preset (default from config: superfast).")
 @click.option("--crf", type=click.IntRange(0, 51), help="x264 quality, lower is better (default from config: 23).")
@@ -283,8 +285,8 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 @click.option("--events", "events_path", type=click.Path(),
               help="Lane events (departures, lane changes, lost stretches): .csv, .jsonl or .parquet.")
 def video(src: str, output: str | None, config_path: str | None, start_s: float, end_s: float | None,
-          telemetry: str | None, debug: bool, sheet: str | None, preset: str | None, crf: int | None,
-          quiet: bool, events_path: str | None) -> None:
+          telemetry: str | None, debug: bool, sheet: str | None, sheet_frames: int | None, preset: str | None,
+          crf: int | None, quiet: bool, events_path: str | None) -> None:
     """Find the lane in every frame of the video SRC; write an annotated H.264 MP4, telemetry and/or events."""
     from .videojob import process_video
 
@@ -297,8 +299,11 @@ def video(src: str, output: str | None, config_path: str | None, start_s: float,
                               "--events FILE for the lane events, or several")
     if output is not None and Path(output).suffix.lower() != ".mp4":
         raise LaneFinderError(f"the output must be an .mp4 file: {output}")
+    if sheet_frames is not None and sheet is None:
+        raise LaneFinderError("--sheet-frames needs --contact-sheet FILE.png")
     summary = process_video(src, output, cfg, start_s=start_s, end_s=end_s, telemetry=telemetry, debug=debug,
-                            contact_sheet_path=sheet, progress=not quiet, events=events_path)
+                            contact_sheet_path=sheet, sheet_frames=sheet_frames or 20, progress=not quiet,
+                            events=events_path)
     for line in summary.lines():
         if line:
             click.echo(line)
