@@ -117,7 +117,13 @@ def test_memory_and_file_urls(tmp_path):
     assert (report.done, report.failed) == (1, 0)
     summary = pq.read_table("fleet/out/summary.parquet", filesystem=fs).to_pylist()
     assert summary[0]["video"] == "harder" and summary[0]["frames"] == 100
-    assert fs.ls("/fleet/out/telemetry/video=harder", detail=False)
+    parts = fs.ls("/fleet/out/telemetry/video=harder", detail=False)
+    assert parts and not fs.exists("/fleet/out/.staging")
+    # A damaged part is noticed on a re-run (its footer is read), and the video redone.
+    fs.pipe(parts[0], b"garbage")
+    again = run_batch(["memory://fleet/in"], "memory://fleet/out", PLUMBING, workers=1, progress=False)
+    assert (again.done, again.skipped, again.redone_changed) == (1, 0, 1)
+    assert pq.read_table("/fleet/out/telemetry", filesystem=fs).num_rows == 100
     fs.rm("/fleet", recursive=True)
     url = run_batch([f"file://{HARDER}"], f"file://{tmp_path}/out", PLUMBING, workers=1, progress=False)
     assert url.done == 1 and (tmp_path / "out" / "telemetry" / "video=harder_challenge_0-4s").is_dir()
@@ -223,6 +229,8 @@ def test_ctrl_c_stops_a_batch_in_one_line(tmp_path):
     # Before: each local worker died printing a traceback, and so did distributed's clean-up.
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == ["lanefinder: error: interrupted"], err
+    # The parts of the videos not finished are gone (a query of telemetry/ never saw them; a re-run redoes them).
+    assert not (out / ".staging").exists() and not list(out.glob("telemetry/.*"))
 
 
 def test_bad_batch_inputs_are_one_line(tmp_path):

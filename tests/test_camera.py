@@ -96,6 +96,15 @@ def test_reads_opencv_sample_yaml(tmp_path, calibrated):
     assert cam.image_size == (1280, 720) and cam.rms_px == pytest.approx(0.99)
 
 
+def test_our_camera_file_under_another_name_reads_and_a_damaged_opencv_file_is_one_error(tmp_path, udacity_camera):
+    save_camera(udacity_camera, tmp_path / "cam.yaml")  # our JSON, named .yaml
+    assert load_camera(tmp_path / "cam.yaml").image_size == (1280, 720)
+    junk = tmp_path / "junk.xml"  # OpenCV XML whose matrix is text: OpenCV asserted (an internal error)
+    junk.write_text('<?xml version="1.0"?>\n<opencv_storage>\n<camera_matrix>junk</camera_matrix></opencv_storage>\n')
+    with pytest.raises(LaneFinderError, match="needs camera_matrix"):
+        load_camera(junk)
+
+
 def test_scaled_camera_serves_half_size_frames(udacity_camera):
     img = cv2.imread(str(CAL / "calibration2.jpg"))
     full = udacity_camera.undistort(img)

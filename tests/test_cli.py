@@ -188,6 +188,11 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         # a lens whose distortion shrinks the frame to a point, and frames too large to render
         (["synth", "--frames", "1", "--camera", "cam.json", "-o", "seq"], "dist_coeffs do not describe a lens"),
         (["synth", "--frames", "1", "--camera", "big.json", "-o", "seq"], "needs about"),
+        # found by a bad-input campaign (2026-11-27): a camera file that calibrate wrote but could not read
+        # back, a plot of telemetry whose times are all NaN (it was written blank), segments of a millisecond
+        (["calibrate", str(CAL), "-o", "cam.yaml"], "name it .json"),
+        (["plot", "nan_t.csv", "-o", "p.png"], "time_s is not a number in any row"),
+        (["config", "--check", "seg.toml"], "segment_s must be 0 (never split) or at least 1 s"),
         # a contact sheet's size without the sheet
         (["video", str(CLIP), "--telemetry", "t.jsonl", "--sheet-frames", "40"], "needs --contact-sheet"),
     ],
@@ -196,6 +201,8 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     (tmp_path / "tiny.toml").write_text("[birdseye]\nxm_per_px = 1e-9\n")
     (tmp_path / "t.csv").write_text("frame,time_s,radius_m\n0,0.0,500\n")
     (tmp_path / "ab.csv").write_text("a,b\n1,2\n")
+    (tmp_path / "nan_t.csv").write_text("frame,time_s,radius_m\n0,nan,500\n1,nan,600\n")
+    (tmp_path / "seg.toml").write_text("[batch]\nsegment_s = 0.001\n")
     (tmp_path / "empty.csv").write_text("")
     (tmp_path / "nocam.toml").write_text('[camera]\nmodel = "nope.json"\n')
     (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],

@@ -124,3 +124,21 @@ def test_the_lateral_error_leaves_out_a_line_without_paint():
     # Painted on both sides, the same left line counts (0.40 m off).
     gt["a"] = {**gt["a"], "lanes": [[250.0, 350.0], [850.0, 950.0]], "left_x": [250.0, 350.0]}
     assert evaluate(gt, pred).lateral_err_6m_median == pytest.approx(0.21)
+
+
+def test_rows_that_cannot_be_scored_are_one_error(tmp_path):
+    import json
+
+    from lanefinder.errors import LaneFinderError
+    from lanefinder.evaluate import read_ground_truth, read_predictions
+
+    row = {"frame": 0, "h_samples": [700], "left_x": [300.0], "right_x": [900.0]}
+    (tmp_path / "gt.jsonl").write_text(json.dumps({**row, "radius_m": 0}) + "\n")  # was a division by zero
+    with pytest.raises(LaneFinderError, match="row 1: radius_m is 0"):
+        read_ground_truth(tmp_path / "gt.jsonl")
+    (tmp_path / "p.jsonl").write_text(json.dumps({k: v for k, v in row.items() if k != "left_x"}) + "\n")
+    with pytest.raises(LaneFinderError, match="no left_x"):  # was scored as if the line were never shown
+        read_predictions(tmp_path / "p.jsonl")
+    (tmp_path / "p.jsonl").write_text(json.dumps({**row, "left_x": "300"}) + "\n")
+    with pytest.raises(LaneFinderError, match="left_x must be a list of numbers"):
+        read_predictions(tmp_path / "p.jsonl")

@@ -328,6 +328,18 @@ def test_telemetry_without_frame_numbers_is_one_line(tmp_path):
         Review(tmp_path / "h.mp4")
 
 
+def test_empty_telemetry_or_another_video_s_is_one_line(tmp_path):
+    from lanefinder.errors import LaneFinderError
+
+    shutil.copy(HARDER, tmp_path / "h.mp4")
+    (tmp_path / "h.csv").write_text("")  # served an empty page before
+    with pytest.raises(LaneFinderError, match=r"h\.csv has no rows"):
+        Review(tmp_path / "h.mp4")
+    (tmp_path / "h.csv").write_text("frame,time_s,state\n0,0.0,lost\n1000000000000,40000000000.0,lost\n")
+    with pytest.raises(LaneFinderError, match=r"runs to frame 1000000000000, but h\.mp4 has about 100 frames"):
+        Review(tmp_path / "h.mp4")
+
+
 @pytest.mark.slow
 def test_ctrl_c_stops_a_review_cleanly(tmp_path):
     import signal

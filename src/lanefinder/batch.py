@@ -161,7 +161,8 @@ class BatchReport:
     skipped : int
         Done before with the same content and config: not run again.
     redone_failed, redone_changed : int
-        Of ``done`` and ``failed``: inputs that had failed before, or whose content or config changed.
+        Of ``done`` and ``failed``: inputs that had failed before, or whose content or config
+        changed (or whose rows were gone or damaged).
     failed : int
         Failed this run (recorded with their reason).
     frames : int
@@ -205,7 +206,8 @@ class BatchReport:
             f"{self.videos} video{'' if self.videos == 1 else 's'}: {self.done} processed, "
             f"{self.skipped} skipped (done before, unchanged), "
             f"{self.failed} failed",
-            f"redone: {self.redone_failed} that had failed, {self.redone_changed} whose content or config changed",
+            f"redone: {self.redone_failed} that had failed, {self.redone_changed} whose content or config changed "
+            "(or whose rows were gone)",
             f"frames: {self.frames} in {self.seconds:.1f} s ({fps:.1f} fps over the fleet)",
             f"outputs: {self.outdir} (telemetry/, events.parquet, summary.parquet, summary.csv, manifest.json)",
         ]
@@ -750,13 +752,20 @@ def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config |
     fleet = _Fleet(fs, root, out, cfg, entries, _video_ids(keys, {k: e.video_id for k, e in entries.items()}),
                    write_video)
     in_process = any(k.startswith("memory://") for k in [*keys, out])
-    with _client(workers, scheduler, in_process) as client:
-        if (link := _dashboard(client)) is not None:
-            say(f"Dask dashboard: {link}")
-        probes = _gather_each(client, keys, [client.submit(_probe, k, pure=False) for k in keys],
-                              lambda k, e: {"error": f"the worker failed while probing {k}: {e}"})
-        plan = fleet.plan(keys, probes)
-        fleet.run(client, plan, probes, progress)
+    try:
+        with _client(workers, scheduler, in_process) as client:
+            if (link := _dashboard(client)) is not None:
+                say(f"Dask dashboard: {link}")
+            probes = _gather_each(client, keys, [client.submit(_probe, k, pure=False) for k in keys],
+                                  lambda k, e: {"error": f"the worker failed while probing {k}: {e}"})
+            plan = fleet.plan(keys, probes)
+            fleet.run(client, plan, probes, progress)
+    except BaseException:
+        # Stopped (Ctrl-C) or broken: once the local workers are gone, the parts of the videos not
+        # finished go (a re-run redoes them; they lie outside telemetry/, where no query sees them).
+        fleet.drop_unfinished()
+        raise
+    fleet.tidy()
     _fleet_tables(fs, root, entries)
     return BatchReport(videos=len(keys), outdir=out, seconds=time.perf_counter() - t0, dashboard=link, **fleet.counts)
 
@@ -782,6 +791,7 @@ class _Fleet:
         self.chash = config_hash(cfg)
         self.counts = {"done": 0, "skipped": 0, "redone_failed": 0, "redone_changed": 0, "failed": 0, "frames": 0}
         self.why: dict[str, str] = {}
+        self.unfinished: list[str] = []  # the inputs planned but not finished when run() ended
 
     def _redone(self, key: str) -> None:
         if self.why.get(key):
@@ -789,13 +799,17 @@ class _Fleet:
 
     def _unchanged(self, old: VideoEntry | None, probe: dict) -> bool:
         return bool(old and old.status == "done" and old.content_hash == probe["hash"]
-                    and old.config_hash == self.chash and _parts_exist(self.fs, self.root, old.video_id)
+                    and old.config_hash == self.chash
+                    and _parts_complete(self.fs, self.root, old.video_id, (old.summary or {}).get("frames"))
                     and (not self.write_video or self.fs.exists(_video_path(self.root, old.video_id))))
 
     def plan(self, keys: Sequence[str], probes: dict[str, dict]) -> dict[str, list[Segment]]:
         """Skip what is done and unchanged, record what cannot be read, and cut the rest into segments."""
         plan: dict[str, list[Segment]] = {}
         seg_s = 0.0 if self.write_video else self.cfg.batch.segment_s
+        with contextlib.suppress(Exception):  # parts staged inside telemetry/ by runs before 2026-11-27, killed
+            for old_parts in self.fs.glob(_old_staging(self.root, "*")):
+                _remove(self.fs, old_parts)
         for k in keys:
             p, old = probes[k], self.entries.get(k)
             self.why[k] = "" if old is None else ("failed" if old.status == "failed" else "changed")
@@ -829,6 +843,7 @@ class _Fleet:
         futures = {client.submit(run_segment, s, self.cfg, self.out, self.write_video, pure=False): (k, s)
                    for k in plan for s in plan[k]}
         back: dict[str, list[dict]] = {k: [] for k in plan}
+        finished: set[str] = set()
         try:
             for fut in as_completed(futures):
                 k, seg = futures[fut]
@@ -840,9 +855,25 @@ class _Fleet:
                 bar.update(r.get("frames", 0))
                 if len(back[k]) == len(plan[k]):
                     self._finish(k, probes[k], sorted(back[k], key=lambda x: x["index"]))
+                    finished.add(k)
                     bar.set_postfix(failed=self.counts["failed"])
         finally:
+            self.unfinished = [k for k in plan if k not in finished]
             bar.close()
+
+    def drop_unfinished(self) -> None:
+        """Remove the parts of the videos a stopped run did not finish (call once no worker writes them)."""
+        for k in self.unfinished:
+            with contextlib.suppress(Exception):
+                _remove(self.fs, _staging(self.root, self.ids[k]))
+        self.tidy()
+
+    def tidy(self) -> None:
+        """Remove the staging folder once it is empty."""
+        where = posixpath.join(self.root, ".staging")
+        with contextlib.suppress(Exception):
+            if self.fs.isdir(where) and not self.fs.ls(where, detail=False):
+                self.fs.rmdir(where)
 
     def _finish(self, key: str, probe: dict, results: list[dict]) -> None:
         """Put a video's rows in place and record it, or record why it failed."""
@@ -856,6 +887,7 @@ class _Fleet:
             summary, events = _summarise([r for r in results if "empty" not in r], probe["fps"], self.cfg,
                                          tuple(probe["size"]))
             _remove(self.fs, _partition(self.root, vid))
+            self.fs.makedirs(posixpath.join(self.root, "telemetry"), exist_ok=True)
             self.fs.mv(_staging(self.root, vid), _partition(self.root, vid), recursive=True)
         except Exception as e:
             self._fail(key, str(e) if isinstance(e, LaneFinderError) else f"{type(e).__name__}: {e}", probe["hash"])
@@ -889,7 +921,12 @@ def _partition(root: str, video_id: str) -> str:
 
 
 def _staging(root: str, video_id: str) -> str:
-    """Where a video's parts are written until all are done (a hidden folder: datasets skip it)."""
+    """Where a video's parts are written until all are done (outside ``telemetry/``: no query sees half a video)."""
+    return posixpath.join(root, ".staging", f"video={video_id}")
+
+
+def _old_staging(root: str, video_id: str) -> str:
+    """Where runs before 2026-11-27 staged a video's parts (inside ``telemetry/``; a run removes any it finds)."""
     return posixpath.join(root, "telemetry", f".video={video_id}.new")
 
 
@@ -897,10 +934,19 @@ def _video_path(root: str, video_id: str) -> str:
     return posixpath.join(root, "videos", f"{video_id}.mp4")
 
 
-def _parts_exist(fs, root: str, video_id: str) -> bool:
-    with contextlib.suppress(OSError):
-        return any(p.endswith(".parquet") for p in fs.ls(_partition(root, video_id), detail=False))
-    return False
+def _parts_complete(fs, root: str, video_id: str, frames: int | None) -> bool:
+    """Tell whether a video's partition holds readable parts of ``frames`` rows in all (their footers are read)."""
+    import pyarrow.parquet as pq
+
+    try:
+        parts = [p for p in fs.ls(_partition(root, video_id), detail=False) if p.endswith(".parquet")]
+        rows = 0
+        for p in parts:
+            with fs.open(p, "rb") as f:
+                rows += pq.read_metadata(f).num_rows
+    except (OSError, pa.ArrowException):  # gone, or not Parquet (damaged)
+        return False
+    return bool(parts) and (frames is None or rows == frames)
 
 
 def _remove(fs, path: str) -> None:

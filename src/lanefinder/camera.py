@@ -476,7 +476,7 @@ def load_camera(path: str | Path) -> CameraModel:
     if not p.is_file():
         hint = f" (camera.model {p.name.lower()!r} is lower case)" if p.name.lower() in ("none", "udacity") else ""
         raise LaneFinderError(f"camera file not found: {p}{hint}")
-    if p.suffix.lower() == ".json":
+    if p.suffix.lower() == ".json" or _looks_like_json(p):
         try:
             d = json.loads(p.read_text())
             k = np.asarray(d["camera_matrix"], dtype=np.float64).reshape(3, 3)
@@ -492,6 +492,15 @@ def load_camera(path: str | Path) -> CameraModel:
             raise LaneFinderError(f"{p}: not a lanefinder camera file ({e})") from None
         return _checked_camera(p, k, dist, size, d.get("rms_px"), board, views)
     return _load_opencv_storage(p)
+
+
+def _looks_like_json(p: Path) -> bool:
+    """Tell whether a camera file of another name holds a JSON object (our own file, renamed)."""
+    try:
+        with open(p, "rb") as f:
+            return f.read(64).lstrip().startswith(b"{")
+    except OSError:
+        return False
 
 
 def _checked_camera(p: Path, k: np.ndarray, dist: np.ndarray, size: tuple, rms, board=None, views=(),
@@ -555,6 +564,9 @@ def _load_opencv_storage(p: Path) -> CameraModel:
         w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
         rms_node = fs.getNode("avg_reprojection_error")
         rms = rms_node.real() if not rms_node.empty() else None
+    except cv2.error:  # a node that is not what its name says (text where a matrix should be)
+        raise LaneFinderError(f"{p}: an OpenCV camera file needs camera_matrix, distortion_coefficients, "
+                              "image_width and image_height") from None
     finally:
         fs.release()
     if k is None or k.shape != (3, 3) or dist is None or not w or not h:

@@ -156,6 +156,8 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
     from .camera import calibration_photos, save_camera
     from .io import check_not_input
 
+    if Path(output).suffix.lower() != ".json":
+        raise LaneFinderError(f"the camera file is written as JSON: name it .json, not {Path(output).name}")
     paths = calibration_photos(photos)
     check_not_input(output, paths)
     t0 = time.perf_counter()

@@ -1014,7 +1014,7 @@ class BatchConfig(_Section):
     ----------
     segment_s : float
         Length of a segment, s: a video longer than this is processed as several segments in
-        parallel (0: never split).
+        parallel (0: never split; else at least ``MIN_SEGMENT_S``: each segment costs a task).
     warmup_s : float
         Each segment after the first starts this much earlier, to warm the tracker up; the
         overlap is dropped when the segments are stitched, s.
@@ -1027,6 +1027,17 @@ class BatchConfig(_Section):
 
     segment_s: Annotated[float, Field(ge=0, le=86_400)] = 120.0
     warmup_s: Annotated[float, Field(ge=0, le=600)] = 4.0
+
+    @model_validator(mode="after")
+    def _check_segment(self) -> BatchConfig:
+        if 0 < self.segment_s < MIN_SEGMENT_S:
+            raise ValueError(f"segment_s must be 0 (never split) or at least {MIN_SEGMENT_S:g} s: each segment is "
+                             f"a task that opens the video and warms the tracker up (got {self.segment_s:g})")
+        return self
+
+
+#: The shortest segment ``lanefinder batch`` cuts a video into, s (a task costs about a second).
+MIN_SEGMENT_S = 1.0
 
 
 class EventsConfig(_Section):

@@ -301,6 +301,9 @@ def _check_row(row: object, path: Path | str, i: int) -> dict:
     for k in _ROW_NUMBERS:
         if row.get(k) is not None and not _is_number(row[k]):
             raise LaneFinderError(f"{path}: row {i}: {k} is not a number ({row[k]!r})")
+    if row.get("radius_m") == 0:
+        raise LaneFinderError(f"{path}: row {i}: radius_m is 0 (no road bends that tightly; leave it out, or "
+                              "null, for a straight road)")
     return row
 
 
@@ -382,6 +385,13 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
     for i, r in enumerate(rows, 1):
         _check_row(r, p, i)
         if "lanes" not in r:
+            missing = [k for k in ("left_x", "right_x") if k not in r]
+            if missing:
+                raise LaneFinderError(f"{p}: row {i} has no lanes (TuSimple) and no {' or '.join(missing)} "
+                                      "(lanefinder telemetry has left_x and right_x)")
+            for k in ("left_x", "right_x"):
+                if r[k] is not None and not (isinstance(r[k], list) and all(_is_number(v) for v in r[k])):
+                    raise LaneFinderError(f"{p}: row {i}: {k} must be a list of numbers")
             lanes = [lane for lane in (r.get("left_x"), r.get("right_x")) if lane and any(v >= 0 for v in lane)]
             r = {**r, "lanes": lanes}
         out[_key(r)] = r

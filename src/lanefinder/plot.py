@@ -59,9 +59,14 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
                               f"it has {', '.join(list(rows[0])[:8])}")
 
     def col(key: str) -> np.ndarray:
-        return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
+        try:
+            return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
+        except (TypeError, ValueError):
+            raise LaneFinderError(f"{key} is not a number in every row of the telemetry") from None
 
     t = col("time_s")
+    if not np.isfinite(t).any():
+        raise LaneFinderError("time_s is not a number in any row of the telemetry: nothing to plot against")
     fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
     axes[0].semilogy(t, col("radius_m"), lw=1)
     axes[0].set_ylabel("radius (m)")

@@ -458,6 +458,12 @@ def _single_video(video: Path, telemetry: str | Path | None, cfg: Config) -> Vid
         telemetry = found[0]
     v = VideoSource(video_id=video.stem, source=video, telemetry=[Path(telemetry).resolve()])
     rows = v.rows()
+    if not rows:
+        raise LaneFinderError(f"{telemetry} has no rows: not the telemetry of a run on {video.name}")
+    n = v.reader().frames
+    if n > 0 and rows[-1]["frame"] > n * 1.02 + 5:  # the container's count may be an estimate
+        raise LaneFinderError(f"{telemetry} runs to frame {rows[-1]['frame']}, but {video.name} has about {n} frames: "
+                              "is it the telemetry of another video?")
     fps = v.reader().fps
     v.events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
     v.summary = {"video": v.video_id, "input": str(video), "status": "done", "error": None,
