@@ -215,11 +215,13 @@ def test_a_killed_batch_resumes_without_duplicate_rows(tmp_path):
 def test_ctrl_c_stops_a_batch_in_one_line(tmp_path):
     inputs = _three_clips(tmp_path)
     out = tmp_path / "out"
-    proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "2", "--quiet"],
+    (tmp_path / "split.toml").write_text("[batch]\nsegment_s = 1.0\nwarmup_s = 0.5\n")  # 4 segments a video
+    proc = subprocess.Popen([*CLI, "batch", str(inputs), "-o", str(out), "--workers", "2", "--quiet",
+                             "-c", str(tmp_path / "split.toml")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
-        assert _wait(lambda: (out / "manifest.json").exists(), 120)
-        time.sleep(0.5)
+        # Stopped once a video has parts staged (some of its segments done, not all).
+        assert _wait(lambda: any(out.glob(".staging/*/part-*.parquet")), 120)
         os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: to every process of the group
         _, err = proc.communicate(timeout=60)
     finally:

@@ -222,8 +222,11 @@ def test_a_contact_sheet_of_as_many_frames_as_asked(tmp_path):
             "--end", "1", "--quiet", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     sheet = cv2.imread(str(tmp_path / "s.png"))
-    one = (sheet.shape[0] - 4) // 3  # 12 thumbnails, 5 a row: 3 rows of one height (and the 4 px gaps)
-    assert sheet.shape[0] == 3 * one + 4 and abs(one / (sheet.shape[1] - 4) * 5 - 720 / 1280) < 0.05
+    row_h, col_w = (sheet.shape[0] - 4) // 3, (sheet.shape[1] - 4) // 5  # 12 thumbnails, 5 a row: 3 rows
+    assert sheet.shape[0] == 3 * row_h + 4 and sheet.shape[1] == 5 * col_w + 4
+    # The last row holds 2 thumbnails; the rest of it is the sheet's grey.
+    filled = [float(sheet[4 + 2 * row_h:, 4 + c * col_w:(c + 1) * col_w].std()) > 5 for c in range(5)]
+    assert filled == [True, True, False, False, False]
 
 
 def test_eval_reads_parquet_telemetry_and_names_its_row(tmp_path):

@@ -4,9 +4,10 @@
 that list paths; local paths or fsspec URLs), probes each one on the cluster, cuts the long
 ones into segments (each after the first starting ``batch.warmup_s`` early so the tracker
 is warm when its own span begins; the overlap is dropped), and runs the segments as Dask
-tasks.  Each task writes its rows straight into ``OUTDIR/telemetry/video=<id>/`` (one Parquet
-file per segment, put in place only when complete) and sends back a few numbers per frame,
-from which the client finds the lane events of the whole video and its summary.
+tasks.  Each task writes its rows into ``OUTDIR/.staging/video=<id>/`` (one Parquet file per
+segment, put in place only when complete) and sends back a few numbers per frame, from which
+the client finds the lane events of the whole video and its summary; once all of a video's
+segments are back, its parts move into ``OUTDIR/telemetry/video=<id>/`` together.
 
 A manifest (``OUTDIR/manifest.json``, rewritten atomically after every video) keys each
 input by its content hash and the config's hash: a re-run skips what is done, redoes what
@@ -207,7 +208,7 @@ class BatchReport:
             f"{self.skipped} skipped (done before, unchanged), "
             f"{self.failed} failed",
             f"redone: {self.redone_failed} that had failed, {self.redone_changed} whose content or config changed "
-            "(or whose rows were gone)",
+            "(or whose rows were gone or damaged)",
             f"frames: {self.frames} in {self.seconds:.1f} s ({fps:.1f} fps over the fleet)",
             f"outputs: {self.outdir} (telemetry/, events.parquet, summary.parquet, summary.csv, manifest.json)",
         ]
@@ -840,6 +841,7 @@ class _Fleet:
 
         bar = tqdm(total=sum(max(1, probes[k]["frames"]) for k in plan), unit="frame",
                    disable=None if progress else True, dynamic_ncols=True, desc="fleet")
+        self.unfinished = list(plan)  # until each is finished (an interrupt may come while submitting)
         futures = {client.submit(run_segment, s, self.cfg, self.out, self.write_video, pure=False): (k, s)
                    for k in plan for s in plan[k]}
         back: dict[str, list[dict]] = {k: [] for k in plan}
@@ -859,6 +861,9 @@ class _Fleet:
                     bar.set_postfix(failed=self.counts["failed"])
         finally:
             self.unfinished = [k for k in plan if k not in finished]
+            if self.unfinished:  # stopped: what has not started never will (a running task ends on its own)
+                with contextlib.suppress(Exception):
+                    client.cancel([f for f, (k, _) in futures.items() if k in self.unfinished])
             bar.close()
 
     def drop_unfinished(self) -> None:
@@ -936,8 +941,6 @@ def _video_path(root: str, video_id: str) -> str:
 
 def _parts_complete(fs, root: str, video_id: str, frames: int | None) -> bool:
     """Tell whether a video's partition holds readable parts of ``frames`` rows in all (their footers are read)."""
-    import pyarrow.parquet as pq
-
     try:
         parts = [p for p in fs.ls(_partition(root, video_id), detail=False) if p.endswith(".parquet")]
         rows = 0

@@ -479,6 +479,8 @@ def load_camera(path: str | Path) -> CameraModel:
     if p.suffix.lower() == ".json" or _looks_like_json(p):
         try:
             d = json.loads(p.read_text())
+            if isinstance(d, dict) and isinstance(d.get("camera_matrix"), dict):  # OpenCV's FileStorage JSON
+                return _load_opencv_storage(p)
             k = np.asarray(d["camera_matrix"], dtype=np.float64).reshape(3, 3)
             dist = np.asarray(d["dist_coeffs"], dtype=np.float64).ravel()
             size = tuple(int(v) for v in d["image_size"])
@@ -495,7 +497,7 @@ def load_camera(path: str | Path) -> CameraModel:
 
 
 def _looks_like_json(p: Path) -> bool:
-    """Tell whether a camera file of another name holds a JSON object (our own file, renamed)."""
+    """Tell whether a camera file of another name holds a JSON object (ours renamed, or OpenCV's JSON)."""
     try:
         with open(p, "rb") as f:
             return f.read(64).lstrip().startswith(b"{")

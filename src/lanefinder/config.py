@@ -21,6 +21,7 @@ __all__ = [
     "LANE_WIDTH_M",
     "MAX_FOV_DEG",
     "MIN_FOV_DEG",
+    "MIN_SEGMENT_S",
     "SETUP_SECTIONS",
     "VIEW_SIZE_PX",
     "BatchConfig",
@@ -1007,6 +1008,10 @@ class SelfCalConfig(_Section):
         return self
 
 
+#: The shortest segment ``lanefinder batch`` cuts a video into, s (a task costs about a second).
+MIN_SEGMENT_S = 1.0
+
+
 class BatchConfig(_Section):
     """How ``lanefinder batch`` cuts long videos into segments for the cluster.
 
@@ -1035,9 +1040,6 @@ class BatchConfig(_Section):
                              f"a task that opens the video and warms the tracker up (got {self.segment_s:g})")
         return self
 
-
-#: The shortest segment ``lanefinder batch`` cuts a video into, s (a task costs about a second).
-MIN_SEGMENT_S = 1.0
 
 
 class EventsConfig(_Section):

@@ -301,9 +301,6 @@ def _check_row(row: object, path: Path | str, i: int) -> dict:
     for k in _ROW_NUMBERS:
         if row.get(k) is not None and not _is_number(row[k]):
             raise LaneFinderError(f"{path}: row {i}: {k} is not a number ({row[k]!r})")
-    if row.get("radius_m") == 0:
-        raise LaneFinderError(f"{path}: row {i}: radius_m is 0 (no road bends that tightly; leave it out, or "
-                              "null, for a straight road)")
     return row
 
 
@@ -344,6 +341,9 @@ def read_ground_truth(path: str | Path) -> dict[str, dict]:
     rows = _read_jsonl(Path(path))
     for i, r in enumerate(rows, 1):
         _check_row(r, path, i)
+        if r.get("radius_m") == 0:  # the relative radius error divides by it
+            raise LaneFinderError(f"{path}: row {i}: radius_m is 0 (no road bends that tightly; leave it out, or "
+                                  "null, for a straight road)")
         if "lanes" not in r or "h_samples" not in r:
             raise LaneFinderError(f"{path}: ground truth rows need lanes and h_samples")
         if any(len(lane) != len(r["h_samples"]) for lane in r["lanes"]):

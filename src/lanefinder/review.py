@@ -463,7 +463,8 @@ def _single_video(video: Path, telemetry: str | Path | None, cfg: Config) -> Vid
     n = v.reader().frames
     if n > 0 and rows[-1]["frame"] > n * 1.02 + 5:  # the container's count may be an estimate
         raise LaneFinderError(f"{telemetry} runs to frame {rows[-1]['frame']}, but {video.name} has about {n} frames: "
-                              "is it the telemetry of another video?")
+                              "is it the telemetry of another video? (telemetry of a run with --start counts frames "
+                              "from the source video's start: review it with the source video)")
     fps = v.reader().fps
     v.events = [event_row(e) for e in detect_events(rows, fps, cfg.events)]
     v.summary = {"video": v.video_id, "input": str(video), "status": "done", "error": None,
