@@ -105,7 +105,8 @@ def test_our_camera_file_under_another_name_reads_and_a_damaged_opencv_file_is_o
         load_camera(junk)
     for name in ("opencv.json", "opencv_json.yml"):  # OpenCV's FileStorage writes JSON too (by its name)
         fs = cv2.FileStorage(str(tmp_path / "w.json"), cv2.FILE_STORAGE_WRITE)
-        for key, value in (("image_width", 1280), ("image_height", 720), ("camera_matrix", udacity_camera.camera_matrix),
+        for key, value in (("image_width", 1280), ("image_height", 720),
+                           ("camera_matrix", udacity_camera.camera_matrix),
                            ("distortion_coefficients", udacity_camera.dist_coeffs.reshape(-1, 1))):
             fs.write(key, value)
         fs.release()
