@@ -680,3 +680,66 @@ def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):
     assert proc.returncode in (130, -signal.SIGINT) and "Traceback" not in err, err
     assert err.strip() in ("lanefinder: error: interrupted", "") and (err.strip() or "interrupted:" in out), (out, err)
     assert not list(tmp_path.glob(".*"))
+
+
+# -- found by a second bad-input campaign (2026-11-27): the library's functions called with what they do not take
+
+
+def test_functions_given_what_they_do_not_take_say_so(tmp_path):
+    from lanefinder.events import detect_events
+    from lanefinder.imagejob import process_images
+    from lanefinder.stats import check_counts, curves, video_stats
+    from lanefinder.videojob import process_video
+
+    calls = [
+        (lambda: process_video(CLIP, None, telemetry=tmp_path / "t.csv", max_frames=0), "max_frames must be"),
+        (lambda: process_video(CLIP, None, telemetry=tmp_path / "t.csv", start_s="0"), "start_s must be a number"),
+        (lambda: process_video(CLIP, None, {}, telemetry=tmp_path / "t.csv"), "config must be a lanefinder Config"),
+        (lambda: process_images(str(CLIP), tmp_path / "o"), "give \\[path\\] for one image"),
+        (lambda: detect_events(None, 25.0), "rows must be a list"),
+        # rows read_telemetry gives from files edited by hand (these raised TypeError, AttributeError, KeyError)
+        (lambda: curves([{"time_s": None, "curvature_per_m": 0.01, "radius_m": 100.0}]), "time_s is missing"),
+        (lambda: check_counts([{"checks": ["left-jump"]}]), "checks must be text"),
+        (lambda: video_stats([{"left_found": True, "right_found": True}]), "has no state"),
+    ]
+    for call, says in calls:
+        with pytest.raises(LaneFinderError, match=says):
+            call()
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_lens_too_wide_for_a_still_s_own_setup_gives_no_lane_not_an_error():
+    # A 172-degree lens (focal_px 37 over 1280 px) is allowed; the still's own set-up then made an
+    # invalid trapezoid and raised pydantic's ValidationError (an internal error on the command line).
+    cfg = config_from_dict({"camera": {"model": "none", "focal_px": 37}}, "f37")
+    r = LaneFinder(cfg).process_still(cv2.imread(str(TEST_IMAGES / "test3.jpg")))
+    assert r.setup in ("default", "horizon", "lines")
+
+
+def test_a_camera_that_sees_no_road_is_refused_by_synth(tmp_path):
+    from lanefinder.camera import CameraModel
+    from lanefinder.synth import write_sequence
+
+    tele = CameraModel(np.array([[9000.0, 0, 160], [0, 9000.0, 90], [0, 0, 1]]), np.zeros(5), (320, 180))
+    with pytest.raises(LaneFinderError, match="no road is in view"):  # was an OpenCV assertion
+        write_sequence("straight", 2, tmp_path / "s", seed=0, camera=tele)
+
+
+def test_the_largest_video_stream_is_read(tmp_path):
+    from lanefinder.video import VideoInfo, frames
+
+    path = tmp_path / "two.mp4"  # a small black preview first, the road second
+    road = [f.image for _, f in zip(range(5), frames(CLIP), strict=False)]
+    with av.open(str(path), "w") as c:
+        small, big = c.add_stream("libx264", rate=25), c.add_stream("libx264", rate=25)
+        small.width, small.height, big.width, big.height = 320, 180, 1280, 720
+        for img in road:
+            for st, im in ((small, np.zeros((180, 320, 3), np.uint8)), (big, img)):
+                for packet in st.encode(av.VideoFrame.from_ndarray(im, format="bgr24")):
+                    c.mux(packet)
+        for st in (small, big):
+            for packet in st.encode():
+                c.mux(packet)
+    assert VideoInfo.from_path(path).size == (1280, 720)
+    got = [f.image for f in frames(path)]
+    assert len(got) == 5 and got[0].shape == (720, 1280, 3) and got[0].mean() > 30

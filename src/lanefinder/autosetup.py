@@ -36,6 +36,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from pydantic import ValidationError
 
 from .birdseye import make_birdseye
 from .camera import CameraModel
@@ -1384,10 +1385,15 @@ def view_from_estimate(est: RoadEstimate, frame_size: tuple[int, int],
     k_full[0, 0] /= s
     k_full[1, 1] /= s
     k_full[:2, 2] = (k[:2, 2] + 0.5) / s - 0.5
-    b = BirdseyeConfig(reference_size=(int(frame_size[0]), int(frame_size[1])),
-                       src=tuple((round(float(x), 2), round(float(y), 2)) for x, y in src),
-                       size=VIEW_SIZE_PX, dst=default_dst(VIEW_SIZE_PX, LANE_SPAN_PX),
-                       xm_per_px=opts.lane_width_m / LANE_SPAN_PX, ym_per_px=(z_far - z_near) / VIEW_SIZE_PX[1])
+    try:
+        b = BirdseyeConfig(reference_size=(int(frame_size[0]), int(frame_size[1])),
+                           src=tuple((round(float(x), 2), round(float(y), 2)) for x, y in src),
+                           size=VIEW_SIZE_PX, dst=default_dst(VIEW_SIZE_PX, LANE_SPAN_PX),
+                           xm_per_px=opts.lane_width_m / LANE_SPAN_PX, ym_per_px=(z_far - z_near) / VIEW_SIZE_PX[1])
+    except ValidationError as e:  # a lens so wide (or a road so placed) that the view's corners fold
+        first = e.errors()[0] if e.errors() else {}
+        raise LaneFinderError(f"no bird's-eye view can be made of this road in this frame: "
+                              f"{first.get('msg', 'invalid trapezoid')}") from None
     acc = [e for e in est.evidence if e.accepted]
     vps = np.array([e.lines.vp for e in acc]) / s if acc else np.zeros((0, 2))
     hs = np.array([_frame_plane(k, e.lines, opts.lane_width_m)[1] for e in acc])

@@ -745,6 +745,10 @@ def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config |
     cfg = config or Config()
     say = echo or (lambda _s: None)
     t0 = time.perf_counter()
+    if isinstance(inputs, (str, Path)):  # one input (a string is a sequence of characters)
+        inputs = [inputs]
+    if config is not None and not isinstance(config, Config):
+        raise LaneFinderError(f"config must be a lanefinder Config, not {type(config).__name__}")
     keys = find_inputs(inputs)
     out = str(outdir)
     fs, root = _fs(out)

@@ -419,6 +419,8 @@ def detect_events(rows: Iterable[Mapping[str, Any]], fps: float, config: EventsC
     """
     if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not (math.isfinite(fps) and fps > 0):
         raise LaneFinderError(f"events: the frame rate must be a positive number (got {fps!r})")
+    if rows is None or isinstance(rows, (str, bytes, Mapping)) or not isinstance(rows, Iterable):
+        raise LaneFinderError(f"events: rows must be a list of telemetry rows (got {type(rows).__name__})")
     cfg = config if config is not None else EventsConfig()
     s = _series(rows, float(fps))
     if not s.frame.size:

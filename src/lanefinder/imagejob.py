@@ -128,7 +128,12 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
     >>> run.ok, run.rows[0]["left_found"], run.rows[0]["output"].endswith("test3.jpg")
     (True, True, True)
     """
-    cfg = config or Config()
+    from .videojob import _config_arg
+
+    cfg = _config_arg(config)
+    if isinstance(paths, (str, Path)):
+        raise LaneFinderError("paths must be a list of image paths (give [path] for one image)")
+    paths = [Path(p) for p in paths]
     finder = LaneFinder(cfg)
     out = Path(outdir)
     results = out / RESULTS_NAME

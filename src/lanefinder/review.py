@@ -81,14 +81,14 @@ class FrameReader:
     def __init__(self, path: str | Path):
         import av
 
-        from .video import VideoInfo
+        from .video import VideoInfo, main_stream
 
         info = VideoInfo.from_path(path)
         self.path = str(path)
         self.fps, self.frames, self.size = float(info.fps), info.total_frames, info.size
         self._av = av
         self._c = av.open(self.path)
-        self._s = self._c.streams.video[0]
+        self._s = main_stream(self._c)
         self._s.thread_type = "AUTO"
         self._tb = self._s.time_base
         self._t0 = self._s.start_time or 0

@@ -6,9 +6,12 @@ videos to.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
+
+from .errors import LaneFinderError
 
 __all__ = [
     "check_counts",
@@ -44,9 +47,11 @@ def curves(rows: list[dict], min_s: float = 2.0, straight_m: float = 3000.0) -> 
     [{'side': 'left', 'from_s': 0.0, 'to_s': 2.9, 'median_radius_m': 1000.0}]
     """
     out, cur = [], None
-    for r in rows:
-        k, rad = r.get("curvature_per_m"), r.get("radius_m")
+    for i, r in enumerate(rows, 1):
+        k, rad = _number(r, "curvature_per_m", i), _number(r, "radius_m", i)
         side = None if k is None or rad is None or rad >= straight_m else ("right" if k > 0 else "left")
+        if side is not None and _number(r, "time_s", i) is None:
+            raise LaneFinderError(f"telemetry row {i}: time_s is missing, so its curve has no time")
         if cur and side == cur["side"]:
             cur["rows"].append(r)
             continue
@@ -84,10 +89,13 @@ def check_counts(rows: list[dict]) -> dict[str, dict[str, int]]:
     {'left-jump': {'frames': 2, 'not_both': 2, 'lost': 1}, 'offset': {'frames': 1, 'not_both': 1, 'lost': 1}}
     """
     out: dict[str, dict[str, int]] = {}
-    for r in rows:
-        names = r.get("checks")
+    for i, r in enumerate(rows, 1):
+        names = _record(r, i).get("checks")
         if not names:
             continue
+        if not isinstance(names, str):
+            raise LaneFinderError(f"telemetry row {i}: checks must be text, names separated by commas "
+                                  f"(got {type(names).__name__})")
         both = _both(r)
         for name in dict.fromkeys(names.split(",")):
             c = out.setdefault(name, {"frames": 0, "not_both": 0, "lost": 0})
@@ -127,6 +135,23 @@ def _both(row: dict) -> bool:
     return bool(row.get("left_found")) and bool(row.get("right_found"))
 
 
+def _record(row: object, i: int) -> dict:
+    """Give a telemetry row, or refuse what is not a record of named fields, naming it."""
+    if not isinstance(row, dict):
+        raise LaneFinderError(f"telemetry row {i} is not a record of named fields")
+    return row
+
+
+def _number(row: object, key: str, i: int) -> float | None:
+    """Give a row's number (None when absent, null or NaN), or refuse one that is not a number."""
+    v = _record(row, i).get(key)
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise LaneFinderError(f"telemetry row {i}: {key} is not a number ({v!r})")
+    return float(v) if math.isfinite(v) else None
+
+
 def video_stats(rows: list[dict]) -> dict[str, Any]:
     """Summarise a run's telemetry rows.
 
@@ -153,6 +178,12 @@ def video_stats(rows: list[dict]) -> dict[str, Any]:
     (100.0, 3.7, 0.1)
     """
     n = len(rows)
+    for i, r in enumerate(rows, 1):
+        missing = [k for k in ("state", "left_found", "right_found") if k not in _record(r, i)]
+        if missing:
+            raise LaneFinderError(f"telemetry row {i} has no {', '.join(missing)}: not lanefinder telemetry")
+        for key in ("width_m", "offset_m"):
+            _number(r, key, i)
     shown = sum(1 for r in rows if r["state"] != "lost")
     seen_both = sum(1 for r in rows if r["left_found"] and r["right_found"])
     lost = n - shown

@@ -876,6 +876,11 @@ class Renderer:
         self.r0, self.ground, self.X, self.Z, self.sky_full, self.sky_band, self.rays = _ground_samples(
             camera, self.rot, mount.height_m, supersample, self.hills)
         self.size, self.s = (w, h), supersample
+        if self.r0 // supersample >= h:
+            raise LaneFinderError(f"no road is in view: this camera ({w}x{h}, focal length "
+                                  f"{camera.camera_matrix[0, 0]:g} px, principal point at row "
+                                  f"{camera.camera_matrix[1, 2]:g}) at {mount.height_m:g} m pitched "
+                                  f"{mount.pitch_deg:g} degrees sees no road below the horizon")
         # On a level road every frame meets the road at the same distances: zero where there is none.
         self.Zc = None if self.hills else np.where(self.ground, self.Z, 0).astype(np.float32)
         if self.Zc is not None:

@@ -18,7 +18,7 @@ import numpy as np
 from .errors import LaneFinderError
 from .io import OutputSet, input_file
 
-__all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames"]
+__all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames", "main_stream"]
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ class VideoInfo:
             When the file is missing, unreadable, or has no video stream.
         """
         with _open(path) as c:
-            s = c.streams.video[0]
+            s = main_stream(c)
             fps = Fraction(s.average_rate or s.guessed_rate or 25)
             if s.duration is not None and s.time_base is not None:
                 duration = float(s.duration * s.time_base)
@@ -87,6 +87,33 @@ class VideoInfo:
                 duration = 0.0
             frames = int(s.frames) or round(duration * fps)
             return cls(s.codec_context.width, s.codec_context.height, fps, frames, duration, s.codec_context.name)
+
+
+def main_stream(container):
+    """Give a container's main video stream: the one of most pixels a frame (the first of those).
+
+    A file may hold a small preview or a second camera beside the road video; the largest is
+    taken, the same one by every reader (``VideoInfo``, :func:`frames`, the review page).
+
+    Parameters
+    ----------
+    container : av.container.InputContainer
+        An open container with at least one video stream.
+
+    Returns
+    -------
+    av.video.stream.VideoStream
+        The stream.
+
+    Examples
+    --------
+    >>> import av
+    >>> with av.open("data/clips/project_37-47s.mp4") as c:
+    ...     main_stream(c).index
+    0
+    """
+    # (max gives the first of equals)
+    return max(container.streams.video, key=lambda st: (st.codec_context.width or 0) * (st.codec_context.height or 0))
 
 
 # Containers that hold a still image, not a video.
@@ -216,7 +243,7 @@ def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, t
     """
     stats = stats if stats is not None else DecodeStats()
     with _open(path) as c:
-        s = c.streams.video[0]
+        s = main_stream(c)
         s.thread_type = "AUTO"
         s.codec_context.thread_count = threads
         fps = Fraction(s.average_rate or s.guessed_rate or 25)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import numbers
 import queue
 import signal
 import threading
@@ -237,6 +238,16 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
     for sig in old:
         signal.signal(sig, handler)
     return restore
+
+
+def _config_arg(config: object) -> Config:
+    """Give the config argument of a job (the defaults for None), or refuse what is not a Config."""
+    if config is None:
+        return Config()
+    if not isinstance(config, Config):
+        raise LaneFinderError(f"config must be a lanefinder Config (load_config(path) reads a file), "
+                              f"not {type(config).__name__}")
+    return config
 
 
 def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
@@ -478,7 +489,13 @@ def process_video(
     >>> s.frames, s.tracked
     (5, 5)
     """
-    cfg = config or Config()
+    cfg = _config_arg(config)
+    for name, value in (("start_s", start_s), ("end_s", end_s)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)):
+            raise LaneFinderError(f"{name} must be a number of seconds (got {value!r})")
+    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, numbers.Integral)
+                                   or max_frames < 1):
+        raise LaneFinderError(f"max_frames must be a whole number, 1 or more, or None for all (got {max_frames!r})")
     src, dst = Path(src), (Path(dst) if dst is not None else None)
     _check_args(dst, telemetry, contact_sheet_path, start_s, end_s, events, collecting=on_result is not None)
     if not (isinstance(sheet_frames, int) and sheet_frames >= 0):
