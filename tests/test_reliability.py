@@ -743,3 +743,27 @@ def test_the_largest_video_stream_is_read(tmp_path):
     assert VideoInfo.from_path(path).size == (1280, 720)
     got = [f.image for f in frames(path)]
     assert len(got) == 5 and got[0].shape == (720, 1280, 3) and got[0].mean() > 30
+
+
+@pytest.mark.parametrize(("rotation", "size", "block_at"), [(180, (320, 180), (160, 290)), (90, (180, 320), (290, 20)),
+                                                             (-90, (180, 320), (30, 160))])
+def test_a_video_s_rotation_metadata_is_applied(tmp_path, rotation, size, block_at):
+    # (an upside-down recording with its rotation in the file was read upside down: no lane on any frame)
+    from lanefinder.video import VideoInfo, frames
+
+    img = np.zeros((180, 320, 3), np.uint8)
+    img[:40, :60] = 255  # a block in the stored frame's top-left corner
+    path = tmp_path / "r.mp4"
+    with av.open(str(path), "w") as c:
+        st = c.add_stream("libx264", rate=25)
+        st.width, st.height = 320, 180
+        st.set_display_rotation(rotation)  # shown turned this many degrees counter-clockwise
+        for _ in range(3):
+            for packet in st.encode(av.VideoFrame.from_ndarray(img, format="bgr24")):
+                c.mux(packet)
+        for packet in st.encode():
+            c.mux(packet)
+    assert VideoInfo.from_path(path).size == size
+    shown = next(frames(path)).image
+    ys, xs = np.nonzero(shown[..., 0] > 128)
+    assert shown.shape[:2] == size[::-1] and (round(ys.mean()), round(xs.mean())) == block_at

@@ -118,6 +118,8 @@ class FrameReader:
         LaneFinderError
             When ``n`` is out of range or cannot be decoded.
         """
+        from .video import frame_image
+
         if not 0 <= n < self.frames:
             raise LaneFinderError(f"frame {n} is out of range 0..{self.frames - 1}")
         with self._lock:
@@ -134,7 +136,7 @@ class FrameReader:
                     i = self._index(f)
                     self._last = i
                     if i >= n:
-                        img = f.to_ndarray(format="bgr24")
+                        img = frame_image(f)
                         self._cache[n] = img
                         if len(self._cache) > _CACHE_FRAMES:
                             self._cache.popitem(last=False)

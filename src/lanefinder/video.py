@@ -6,6 +6,7 @@ Modelled on supervision's VideoInfo / get_video_frames_generator / VideoSink.
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from fractions import Fraction
@@ -18,7 +19,7 @@ import numpy as np
 from .errors import LaneFinderError
 from .io import OutputSet, input_file
 
-__all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frames", "main_stream"]
+__all__ = ["DecodeStats", "Frame", "VideoInfo", "VideoSink", "frame_image", "frames", "main_stream", "upright"]
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,10 @@ class VideoInfo:
             else:
                 duration = 0.0
             frames = int(s.frames) or round(duration * fps)
-            return cls(s.codec_context.width, s.codec_context.height, fps, frames, duration, s.codec_context.name)
+            w, h = s.codec_context.width, s.codec_context.height
+            if round(_first_rotation(c, s) / 90) % 2:  # shown turned a quarter: as wide as it is stored tall
+                w, h = h, w
+            return cls(w, h, fps, frames, duration, s.codec_context.name)
 
 
 def main_stream(container):
@@ -114,6 +118,72 @@ def main_stream(container):
     """
     # (max gives the first of equals)
     return max(container.streams.video, key=lambda st: (st.codec_context.width or 0) * (st.codec_context.height or 0))
+
+
+def _first_rotation(container, stream) -> float:
+    """Give the display rotation of a stream's first frame (0 when none decodes)."""
+    with contextlib.suppress(av.error.FFmpegError, StopIteration, ValueError):
+        return _rotation(next(container.decode(stream)))
+    return 0.0
+
+
+def _rotation(frame) -> float:
+    """Give a decoded frame's display rotation, degrees counter-clockwise (0 when the file says none)."""
+    r = getattr(frame, "rotation", 0) or 0
+    return float(r) if math.isfinite(r) else 0.0
+
+
+def frame_image(frame) -> np.ndarray:
+    """Give a decoded PyAV frame as a BGR array, turned the way its file says it is shown.
+
+    Parameters
+    ----------
+    frame : av.VideoFrame
+        The decoded frame.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        Its pixels, BGR, upright (:func:`upright`).
+
+    Examples
+    --------
+    >>> import av
+    >>> with av.open("data/clips/project_37-47s.mp4") as c:
+    ...     frame_image(next(c.decode(video=0))).shape
+    (720, 1280, 3)
+    """
+    return upright(frame.to_ndarray(format="bgr24"), _rotation(frame))
+
+
+#: The turns ``cv2.rotate`` makes, by quarter turns clockwise.
+_QUARTER_TURNS = (None, cv2.ROTATE_90_CLOCKWISE, cv2.ROTATE_180, cv2.ROTATE_90_COUNTERCLOCKWISE)
+
+
+def upright(image: np.ndarray, rotation_deg: float) -> np.ndarray:
+    """Turn a decoded frame the way its file says it is shown (a phone's rotation metadata).
+
+    Parameters
+    ----------
+    image : (H, W, 3) ndarray
+        The frame as stored.
+    rotation_deg : float
+        The display rotation (FFmpeg's display matrix): the frame is shown turned this many
+        degrees counter-clockwise; rounded to quarter turns.
+
+    Returns
+    -------
+    ndarray
+        The frame as shown (the same array when there is nothing to turn).
+
+    Examples
+    --------
+    >>> img = np.zeros((2, 3, 3), np.uint8)
+    >>> upright(img, 0.0) is img, upright(img, -90.0).shape, upright(img, 180.0).shape
+    (True, (3, 2, 3), (2, 3, 3))
+    """
+    turn = _QUARTER_TURNS[round(-rotation_deg / 90) % 4]
+    return image if turn is None else cv2.rotate(image, turn)
 
 
 # Containers that hold a still image, not a video.
@@ -277,7 +347,7 @@ def frames(path: str | Path, start_s: float = 0.0, end_s: float | None = None, t
                 # variable-rate recording puts two frames in one slot.
                 index = max(last + 1, round(t * fps))
                 last = index
-                yield Frame(index, t, f.to_ndarray(format="bgr24"))
+                yield Frame(index, t, frame_image(f))
 
 
 class VideoSink:
