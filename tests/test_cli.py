@@ -108,6 +108,9 @@ def test_images_with_the_same_name_in_two_folders_do_not_overwrite_each_other(tm
 
 def test_folder_with_no_images(tmp_path):
     assert_one_line_error(run("image", str(tmp_path), "-o", str(tmp_path / "o")), "no images in folder")
+    (tmp_path / "day1").mkdir()  # images one level down are not searched: the error says so
+    shutil.copy(TEST_IMAGES / "test1.jpg", tmp_path / "day1")
+    assert_one_line_error(run("image", str(tmp_path), "-o", str(tmp_path / "o")), "sub-folders (day1) are not searched")
 
 
 def test_frame_size_that_does_not_match_the_camera(tmp_path):

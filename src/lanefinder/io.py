@@ -219,7 +219,8 @@ def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path
     ----------
     inputs : iterable of str or Path
         Files (kept as given, whatever their suffix) and folders (their files with an
-        image suffix, see ``IMAGE_SUFFIXES``, sorted naturally: ``2.jpg`` before ``10.jpg``).
+        image suffix, see ``IMAGE_SUFFIXES``, sorted naturally: ``2.jpg`` before ``10.jpg``;
+        their sub-folders are not searched).
     what : str, optional
         What the images are, for the error messages.
 
@@ -244,7 +245,10 @@ def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path
         if p.is_dir():
             found = sorted((f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
             if not found:
-                raise LaneFinderError(f"no {what} in folder {p} (looked for {', '.join(IMAGE_SUFFIXES)})")
+                subs = sorted(d.name for d in p.iterdir() if d.is_dir())
+                hint = f"; its sub-folders ({', '.join(subs[:3])}{', ...' if len(subs) > 3 else ''}) are not " \
+                       "searched: give them" if subs else ""
+                raise LaneFinderError(f"no {what} in folder {p} (looked for {', '.join(IMAGE_SUFFIXES)}){hint}")
             out.extend(found)
         elif p.exists():
             out.append(p)
