@@ -38,6 +38,7 @@ from lanefinder import LaneFinder
 from lanefinder.config import config_from_dict
 from lanefinder.errors import LaneFinderError
 from lanefinder.evaluate import evaluate, read_ground_truth, read_predictions
+from lanefinder.pipeline import MIN_FRAME_PX
 from lanefinder.telemetry import read_telemetry
 from lanefinder.video import VideoInfo
 
@@ -87,8 +88,10 @@ def test_any_array_gives_a_result_or_a_lanefinder_error(shape, dtype, seed):
     try:
         result = LaneFinder().process(frame)
     except LaneFinderError:
+        # Refused only when not a BGR uint8 frame of the camera's shape, or smaller than MIN_FRAME_PX.
         assert not (frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3 and frame.size
-                    and abs(frame.shape[1] / frame.shape[0] / (16 / 9) - 1) < 0.01)
+                    and abs(frame.shape[1] / frame.shape[0] / (16 / 9) - 1) < 0.01
+                    and frame.shape[1] >= MIN_FRAME_PX[0] and frame.shape[0] >= MIN_FRAME_PX[1])
         return
     assert result.state in ("tracking", "re-detect", "lost")
 
@@ -97,6 +100,13 @@ def test_any_array_gives_a_result_or_a_lanefinder_error(shape, dtype, seed):
 def test_things_that_are_not_frames_are_refused(thing):
     with pytest.raises(LaneFinderError, match="BGR uint8"):
         LaneFinder().process(thing)
+
+
+def test_a_frame_too_small_to_hold_a_marking_is_refused():
+    # (a 16x9 still, the camera's shape, once gave a "lane": radius 87 m, offset 0.59 m)
+    tiny = cv2.resize(cv2.imread(str(TEST_IMAGES / "test3.jpg")), (16, 9), interpolation=cv2.INTER_AREA)
+    with pytest.raises(LaneFinderError, match="16x9 pixels is too small"):
+        LaneFinder().process_still(tiny)
 
 
 @FUZZ

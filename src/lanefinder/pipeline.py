@@ -33,7 +33,14 @@ from .selfcal import wanted as selfcal_wanted
 from .threshold import rowwise, streak_points, threshold
 from .tracking import Track, Verdict, step
 
-__all__ = ["LaneFinder", "LaneResult", "birdseye_config_used", "birdseye_from_config", "camera_from_config"]
+__all__ = [
+    "MIN_FRAME_PX",
+    "LaneFinder",
+    "LaneResult",
+    "birdseye_config_used",
+    "birdseye_from_config",
+    "camera_from_config",
+]
 
 
 def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -> CameraModel:
@@ -213,11 +220,19 @@ def _surer(other: LaneResult, first: LaneResult, margin: float) -> bool:
     return other.lane_found and (not first.lane_found or _sureness(other) >= _sureness(first) + margin)
 
 
+#: The smallest frame the lane is looked for in, (width, height) pixels: below, a 15 cm marking 10 m
+#: ahead is under two pixels wide with the Udacity lens (a 16x9 still once gave a "lane").
+MIN_FRAME_PX = (128, 64)
+
+
 def _check_frame(frame: np.ndarray) -> None:
-    """Raise a LaneFinderError unless ``frame`` is a BGR uint8 image."""
+    """Raise a LaneFinderError unless ``frame`` is a BGR uint8 image of at least ``MIN_FRAME_PX``."""
     if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
             or frame.dtype != np.uint8 or 0 in frame.shape):
         raise LaneFinderError("a frame must be a BGR uint8 image of shape (height, width, 3)")
+    if frame.shape[1] < MIN_FRAME_PX[0] or frame.shape[0] < MIN_FRAME_PX[1]:
+        raise LaneFinderError(f"a frame of {frame.shape[1]}x{frame.shape[0]} pixels is too small to find lane "
+                              f"markings in: at least {MIN_FRAME_PX[0]}x{MIN_FRAME_PX[1]}")
 
 
 class LaneFinder:
