@@ -184,3 +184,13 @@ def test_a_seam_running_under_the_car_is_not_taken_for_an_ego_line():
     fl = frame_lines(img, SetupOptions())
     # Measured: 348 and 958 (the right ray is read from three far dashes: extended, 9 px off).
     assert fl.left_bottom_x == pytest.approx(348, abs=5) and fl.right_bottom_x == pytest.approx(949, abs=15)
+
+
+def test_footage_upside_down_or_sideways_is_refused_not_set_up_in_the_sky():
+    # (a still upside down gave a set-up from the tree line, "1 of 1 accepted", the camera 1.18 m up)
+    from lanefinder.camera import udacity_camera
+
+    img = cv2.imread(str(TEST_IMAGES / "straight_lines1.jpg"))
+    assert auto_setup([img], udacity_camera()).quality.frames_used == 1
+    with pytest.raises(LaneFinderError, match="upside down or sideways"):
+        auto_setup([img[::-1].copy()], udacity_camera())

@@ -54,6 +54,7 @@ from .errors import LaneFinderError
 from .threshold import ridge
 
 __all__ = [
+    "MIN_LINE_STANDOUT",
     "FrameEvidence",
     "FrameLines",
     "RoadEstimate",
@@ -235,6 +236,10 @@ class FrameLines:
         The bottom row, pixels.
     inlier_fraction : float
         Share of the segments' length that passes through the vanishing point.
+    standout : float
+        How many times the marking votes of the weaker of the two lines exceed the median vote
+        across the frame's width (infinite when that median is 0): real lane lines stand out
+        tens of times, the edges of trees in footage upside down two or three times.
 
     Examples
     --------
@@ -249,6 +254,7 @@ class FrameLines:
     right_bottom_x: float
     bottom_y: float
     inlier_fraction: float
+    standout: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -653,7 +659,10 @@ def frame_lines(undistorted: np.ndarray, opts: SetupOptions) -> FrameLines:
     mid, span, gap = vp[0], (y_b - vp[1]) * opts.lane_span_factor, (y_b - vp[1]) * opts.min_line_offset
     left = _strongest_ray(hist, centres, (centres < mid - gap) & (centres > mid - span))
     right = _strongest_ray(hist, centres, (centres > mid + gap) & (centres < mid + span))
-    return FrameLines((float(vp[0]), float(vp[1])), left, right, float(y_b), inliers)
+    weaker = min(float(hist[np.argmin(np.abs(centres - x))]) for x in (left, right))
+    background = float(np.median(hist[(centres >= 0) & (centres < w)]))
+    standout = weaker / background if background > 0 else math.inf
+    return FrameLines((float(vp[0]), float(vp[1])), left, right, float(y_b), inliers, standout)
 
 
 # -- the road plane ----------------------------------------------------------------------
@@ -1411,6 +1420,11 @@ def view_from_estimate(est: RoadEstimate, frame_size: tuple[int, int],
     return b, k_full, q
 
 
+#: The median ``FrameLines.standout`` of the frames a set-up is made from must reach this: the
+#: Udacity videos' straight frames give 38-240 (and infinite), stills of them upside down 2-4.
+MIN_LINE_STANDOUT = 5.0
+
+
 def auto_setup(frames: Iterable[np.ndarray], camera: CameraModel | None, opts: SetupOptions | None = None,
                camera_ref: str = "none") -> SetupResult:
     """Find the bird's-eye set-up and its scale from straight-road frames.
@@ -1467,6 +1481,11 @@ def auto_setup(frames: Iterable[np.ndarray], camera: CameraModel | None, opts: S
             grays[i] = cv2.cvtColor(und, cv2.COLOR_BGR2GRAY)
     if size is None or work is None:
         raise LaneFinderError("no frames given")
+    standouts = [e.lines.standout for e in evidence if e.accepted and e.lines is not None]
+    if standouts and float(np.median(standouts)) < MIN_LINE_STANDOUT:
+        raise LaneFinderError(f"the lines found stand out only {float(np.median(standouts)):.1f} times from the "
+                              f"texture beside them (lane lines: {MIN_LINE_STANDOUT:g} times or more, in "
+                              f"{len(standouts)} frame(s)): is the footage upside down or sideways, or not of a road?")
     k = camera.scaled_to(work).camera_matrix if camera is not None else None
     est = estimate_road(evidence, grays, work, k, opts, scale)
     birdseye, k_full, quality = view_from_estimate(est, size, opts)
