@@ -349,7 +349,8 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
     """Render a synthetic dashcam sequence with exact ground truth.
 
     Writes video.mp4, gt.jsonl (per frame: curvature, radius, offset, width, TuSimple lanes),
-    camera.json and config.toml (the exact bird's-eye set-up, for `lanefinder video -c`).
+    events_gt.jsonl (the true lane events), camera.json, config.toml (the exact bird's-eye
+    set-up, for `lanefinder video -c`) and scenario.json (the scenario, look and mount drawn).
     """
     from .camera import load_camera
     from .synth import SCENARIOS, Appearance, Mount, write_sequence
