@@ -156,6 +156,10 @@ class FitParams:
     piece_min_pixels : int
         Pixels a piece (bands next to each other holding any of the line's pixels) needs in its kept
         bands to take part, unless it reaches the view's far edge (0: all do).
+    short_bend_share : float
+        Share of a short marking's direction read as the road bending (``FitConfig.short_bend_share``).
+    short_bend_max_slope : float
+        ... only for a marking within this slope (bird's-eye pixels across per pixel along).
 
     Examples
     --------
@@ -176,6 +180,8 @@ class FitParams:
     band_rows: int = 10
     band_min_pixels: int = 0
     piece_min_pixels: int = 0
+    short_bend_share: float = 0.0
+    short_bend_max_slope: float = 0.0
 
 
 def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width_m: float = 0.15) -> FitParams:
@@ -215,6 +221,8 @@ def fit_params(cfg: FitConfig, xm_per_px: float, ym_per_px: float, marking_width
         band_rows=max(1, round(cfg.band_m / ym_per_px)),
         band_min_pixels=round(cfg.band_min_marking_m * per_m),
         piece_min_pixels=round(cfg.piece_min_marking_m * per_m),
+        short_bend_share=cfg.short_bend_share,
+        short_bend_max_slope=math.tan(math.radians(cfg.short_bend_max_deg)) * ym_per_px / xm_per_px,
     )
 
 
@@ -351,6 +359,17 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     y = y.astype(np.float64)
     span = float(np.ptp(y)) / height_px
     degree = 2 if span >= cfg.min_span_fraction else 1
+    coeffs, residual = _robust_fit(x, y, degree, cfg)
+    if degree == 1 and cfg.short_bend_share > 0 and abs(coeffs[1]) <= cfg.short_bend_max_slope:
+        coeffs = (1 - cfg.short_bend_share) * coeffs + cfg.short_bend_share * _bend_fit(x, y, height_px, cfg)
+    support = min(1.0, n / cfg.support_pixels)
+    quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
+    confidence = min(1.0, max(0.0, math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality))
+    return LineFit(coeffs, n, residual, span, confidence, top_px)
+
+
+def _robust_fit(x: np.ndarray, y: np.ndarray, degree: int, cfg: FitParams) -> tuple[np.ndarray, float]:
+    """Fit x = poly(y) of a degree with Huber reweighting; give (a, b, c) and the weighted RMS residual, px."""
     powers, y0, ys = _powers(y, degree)  # built once for every reweighting
     basis = powers[: degree + 1]
     w = None
@@ -361,11 +380,18 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
         coef = _solve(powers, x, w)
     r = x - coef @ basis
     residual = float(np.sqrt((r * r).mean() if w is None else (w * r * r).sum() / w.sum()))
-    coeffs = _in_y(coef, y0, ys)
-    support = min(1.0, n / cfg.support_pixels)
-    quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
-    confidence = min(1.0, max(0.0, math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality))
-    return LineFit(coeffs, n, residual, span, confidence, top_px)
+    return _in_y(coef, y0, ys), residual
+
+
+def _bend_fit(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -> np.ndarray:
+    """Fit a short marking as a bend that leaves the car's heading: x = a*(y - H)^2 + c, H the bottom row.
+
+    A short piece ahead gives only its place and its direction.  Read as a straight line, all
+    of its direction is the lane's heading, and extrapolated to the car the line lands off by
+    the bend's sagitta on a curve; read this way, all of it is the bend.  Gives (a, b, c) in y.
+    """
+    (_, a, c), _ = _robust_fit(x, (y - height_px) ** 2, 1, cfg)
+    return np.array([a, -2.0 * a * height_px, a * height_px**2 + c])
 
 
 def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.ndarray], height_px: int,
