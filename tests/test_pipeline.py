@@ -292,7 +292,9 @@ def test_a_lone_speck_far_from_a_dash_neither_stretches_nor_bends_the_line():
     sy, sx = np.meshgrid(np.arange(270.0, 282.0), [300.0, 301.0])
     xs, ys = np.r_[xs, sx.ravel()], np.r_[ys, sy.ravel()]
     fit = fit_line(xs, ys, 300, fit_params(FitConfig(), 3.7 / 150, 0.0985))
-    assert fit.span < 0.15 and fit.coeffs_px[0] == 0  # the dash alone: short, so straight
+    # The dash alone: short, and heading along the car's axis, so straight (fit.short_bend_share reads
+    # part of a short line's direction as a bend: none here, but the sum leaves a rounding error).
+    assert fit.span < 0.15 and abs(fit.coeffs_px[0]) < 1e-12
     assert abs(float(np.polyval(fit.coeffs_px, 299.0)) - 310.0) < 1.0
     loose = fit_line(xs, ys, 300, fit_params(FitConfig(piece_min_marking_m=0.0), 3.7 / 150, 0.0985))
     assert loose.span > 0.55 and loose.confidence > fit.confidence + 0.2  # the speck counting
