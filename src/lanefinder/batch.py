@@ -39,7 +39,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from . import __version__
-from .config import Config, dump_config
+from .config import Config, config_arg, dump_config
 from .errors import LaneFinderError, NoFramesError
 from .stats import lane_shares
 from .telemetry import FIELDS
@@ -742,13 +742,11 @@ def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config |
     >>> r.done, r.failed, names
     (1, 0, ['events.parquet', 'manifest.json', 'summary.csv', 'summary.parquet', 'telemetry'])
     """
-    cfg = config or Config()
+    cfg = config_arg(config)
     say = echo or (lambda _s: None)
     t0 = time.perf_counter()
     if isinstance(inputs, (str, Path)):  # one input (a string is a sequence of characters)
         inputs = [inputs]
-    if config is not None and not isinstance(config, Config):
-        raise LaneFinderError(f"config must be a lanefinder Config, not {type(config).__name__}")
     keys = find_inputs(inputs)
     out = str(outdir)
     fs, root = _fs(out)

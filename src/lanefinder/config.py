@@ -43,6 +43,7 @@ __all__ = [
     "TrackingConfig",
     "VideoConfig",
     "YcrcbConfig",
+    "config_arg",
     "config_from_dict",
     "default_dst",
     "dump_config",
@@ -1059,7 +1060,6 @@ class BatchConfig(_Section):
         return self
 
 
-
 class EventsConfig(_Section):
     """Lane events found in the telemetry: departure warnings, lane changes, lost stretches.
 
@@ -1187,6 +1187,37 @@ def _format_error(e: ValidationError, source: str) -> str:
             msg = msg.removeprefix("Value error, ")
         parts.append(f"{key}: {msg}" if key else msg)  # (a check across sections names its keys)
     return f"invalid config {source}: " + "; ".join(parts)
+
+
+def config_arg(config: object) -> Config:
+    """Give a function's ``config`` argument as a Config: the defaults for None, or refuse what is not one.
+
+    Parameters
+    ----------
+    config : Config or None
+        What the caller passed.
+
+    Returns
+    -------
+    Config
+        ``config``, or the defaults.
+
+    Raises
+    ------
+    LaneFinderError
+        When ``config`` is something else (a dict, a path: :func:`load_config` reads a file).
+
+    Examples
+    --------
+    >>> config_arg(None).search.lane_width_m
+    3.7
+    """
+    if config is None:
+        return Config()
+    if not isinstance(config, Config):
+        raise LaneFinderError(f"config must be a lanefinder Config (load_config(path) reads a file), "
+                              f"not {type(config).__name__}")
+    return config
 
 
 def config_from_dict(data: dict, source: str = "") -> Config:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .config import Config
+from .config import Config, config_arg
 from .errors import LaneFinderError
 from .io import OutputSet, atomic_write_text, check_outputs, read_image, write_image
 from .limits import check_memory
@@ -128,9 +128,7 @@ def process_images(paths: Sequence[Path], outdir: str | Path, config: Config | N
     >>> run.ok, run.rows[0]["left_found"], run.rows[0]["output"].endswith("test3.jpg")
     (True, True, True)
     """
-    from .videojob import _config_arg
-
-    cfg = _config_arg(config)
+    cfg = config_arg(config)
     if isinstance(paths, (str, Path)):
         raise LaneFinderError("paths must be a list of image paths (give [path] for one image)")
     paths = [Path(p) for p in paths]

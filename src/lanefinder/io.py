@@ -246,8 +246,8 @@ def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path
             found = sorted((f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
             if not found:
                 subs = sorted(d.name for d in p.iterdir() if d.is_dir())
-                hint = f"; its sub-folders ({', '.join(subs[:3])}{', ...' if len(subs) > 3 else ''}) are not " \
-                       "searched: give them" if subs else ""
+                named = ", ".join(subs[:3]) + (", ..." if len(subs) > 3 else "")
+                hint = f"; its sub-folders ({named}) are not searched: give them" if subs else ""
                 raise LaneFinderError(f"no {what} in folder {p} (looked for {', '.join(IMAGE_SUFFIXES)}){hint}")
             out.extend(found)
         elif p.exists():

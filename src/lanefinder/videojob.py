@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from .birdseye import BirdsEye
-from .config import Config
+from .config import Config, config_arg
 from .errors import LaneFinderError, NoFramesError
 from .events import EVENT_KINDS, EVENT_SUFFIXES, detect_events, write_events
 from .io import OutputSet, encode_image, signals_held
@@ -238,16 +238,6 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
     for sig in old:
         signal.signal(sig, handler)
     return restore
-
-
-def _config_arg(config: object) -> Config:
-    """Give the config argument of a job (the defaults for None), or refuse what is not a Config."""
-    if config is None:
-        return Config()
-    if not isinstance(config, Config):
-        raise LaneFinderError(f"config must be a lanefinder Config (load_config(path) reads a file), "
-                              f"not {type(config).__name__}")
-    return config
 
 
 def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
@@ -489,7 +479,7 @@ def process_video(
     >>> s.frames, s.tracked
     (5, 5)
     """
-    cfg = _config_arg(config)
+    cfg = config_arg(config)
     for name, value in (("start_s", start_s), ("end_s", end_s)):
         if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)):
             raise LaneFinderError(f"{name} must be a number of seconds (got {value!r})")
