@@ -60,7 +60,7 @@ class VideoInfo:
 
     @classmethod
     def from_path(cls, path: str | Path) -> VideoInfo:
-        """Read the facts of the first video stream of a file.
+        """Read the facts of a file's main video stream (:func:`main_stream`), as it is shown (its rotation applied).
 
         Parameters
         ----------
@@ -93,7 +93,7 @@ class VideoInfo:
             return cls(w, h, fps, frames, duration, s.codec_context.name)
 
 
-def main_stream(container):
+def main_stream(container: av.container.InputContainer) -> av.video.stream.VideoStream:
     """Give a container's main video stream: the one of most pixels a frame (the first of those).
 
     A file may hold a small preview or a second camera beside the road video; the largest is
@@ -120,20 +120,20 @@ def main_stream(container):
     return max(container.streams.video, key=lambda st: (st.codec_context.width or 0) * (st.codec_context.height or 0))
 
 
-def _first_rotation(container, stream) -> float:
+def _first_rotation(container: av.container.InputContainer, stream: av.video.stream.VideoStream) -> float:
     """Give the display rotation of a stream's first frame (0 when none decodes)."""
     with contextlib.suppress(av.error.FFmpegError, StopIteration, ValueError):
         return _rotation(next(container.decode(stream)))
     return 0.0
 
 
-def _rotation(frame) -> float:
+def _rotation(frame: av.VideoFrame) -> float:
     """Give a decoded frame's display rotation, degrees counter-clockwise (0 when the file says none)."""
     r = getattr(frame, "rotation", 0) or 0
     return float(r) if math.isfinite(r) else 0.0
 
 
-def frame_image(frame) -> np.ndarray:
+def frame_image(frame: av.VideoFrame) -> np.ndarray:
     """Give a decoded PyAV frame as a BGR array, turned the way its file says it is shown.
 
     Parameters
