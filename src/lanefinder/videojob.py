@@ -242,7 +242,7 @@ def _stop_on_signals(stop: threading.Event) -> Callable[[], None]:
 
 def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Path | None, start_s: float,
                 end_s: float | None, events: str | Path | None, collecting: bool = False) -> None:
-    """Refuse bad names and impossible spans before any work."""
+    """Refuse bad names, times that are not numbers and impossible spans before any work."""
     if dst is None and telemetry is None and events is None and not collecting:
         raise LaneFinderError("nothing to write: give an output video, telemetry, events, or several")
     if events is not None and Path(events).suffix.lower() not in EVENT_SUFFIXES:
@@ -253,6 +253,9 @@ def _check_args(dst: Path | None, telemetry: str | Path | None, sheet: str | Pat
         raise LaneFinderError(f"telemetry file must end in .csv, .jsonl or .parquet: {telemetry}")
     if sheet is not None:
         encode_image(sheet, np.zeros((2, 2, 3), np.uint8))  # refuses a suffix that is not an image format
+    for name, value in (("start_s", start_s), ("end_s", end_s)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)):
+            raise LaneFinderError(f"{name} must be a number of seconds (got {value!r})")
     if not (start_s >= 0 and (end_s is None or end_s > start_s)) or math.isinf(start_s):  # also refuses NaN
         raise LaneFinderError(f"--start/--end must satisfy 0 <= start < end (got {start_s}, {end_s})")
 
@@ -480,16 +483,13 @@ def process_video(
     (5, 5)
     """
     cfg = config_arg(config)
-    for name, value in (("start_s", start_s), ("end_s", end_s)):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)):
-            raise LaneFinderError(f"{name} must be a number of seconds (got {value!r})")
-    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, numbers.Integral)
-                                   or max_frames < 1):
-        raise LaneFinderError(f"max_frames must be a whole number, 1 or more, or None for all (got {max_frames!r})")
     src, dst = Path(src), (Path(dst) if dst is not None else None)
     _check_args(dst, telemetry, contact_sheet_path, start_s, end_s, events, collecting=on_result is not None)
     if not (isinstance(sheet_frames, int) and sheet_frames >= 0):
         raise LaneFinderError(f"a contact sheet needs a whole number of frames, 0 or more (got {sheet_frames!r})")
+    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, numbers.Integral)
+                                   or max_frames < 1):
+        raise LaneFinderError(f"max_frames must be a whole number, 1 or more, or None for all (got {max_frames!r})")
     info = VideoInfo.from_path(src)
     if start_s >= info.duration_s > 0:
         raise LaneFinderError(f"--start {start_s} s is past the end of the video ({info.duration_s:.2f} s)")
