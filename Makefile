@@ -22,9 +22,10 @@ demo: $(STAMP)
 	$(BIN)/lanefinder image data/test_images -o output/images --stages output/stages
 	@echo "demo outputs are in output/"
 
-# Two processes (the machines have 2 cores); a test file stays in one process (its fixtures are shared).
+# Two processes (the machines have 2 cores); a test file stays in one process (its fixtures are shared),
+# and files are handed out slowest first (tests/conftest.py, SLOWEST_FILES).
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
 
 # The unit tests and doctests (no full videos, no encoding, no subprocesses), on two processes: under 30 s.
 test-fast: $(STAMP)
