@@ -320,3 +320,19 @@ def test_stills_of_a_synthetic_scene_are_scored_against_its_truth(tmp_path):
                             randomise=True)
     scores = mod.score(folder, [10, 35], LaneFinder())
     assert len(scores) == 2 and all(s is not None and s >= 0.95 for s in scores)
+
+
+def test_the_renderers_remainder_is_numpys():
+    # The renderer takes remainders with fmod (about twice as fast); its frames must stay those
+    # NumPy's remainder gave, bit for bit (checked on 221 frames when it changed).
+    from lanefinder.synth import _remainder
+
+    rng = np.random.default_rng(0)
+    a = np.concatenate([(rng.standard_normal(100_000) * 50).astype(np.float32),
+                        np.float32([0.0, -0.0, 3.7, -3.7, 7.4, -1e-8, 1e-8])])
+    for b in (3.7, 4.5, 90.0, 0.3):
+        expected = a % b
+        got = _remainder(a.copy(), b)
+        assert got.dtype == np.float32 and np.array_equal(got, expected)
+    u = np.abs(a)
+    assert np.array_equal(np.fmod(u, 4.5), u % 4.5)  # non-negative distances: fmod is the remainder
