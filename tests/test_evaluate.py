@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 
-from lanefinder.evaluate import bench_frame, evaluate, lane_angle, line_accuracy
+from lanefinder.errors import LaneFinderError
+from lanefinder.evaluate import (
+    bench_frame,
+    evaluate,
+    lane_angle,
+    line_accuracy,
+    read_ground_truth,
+    read_predictions,
+)
 
 Y = list(range(400, 720, 10))  # 32 rows
 
@@ -127,11 +136,6 @@ def test_the_lateral_error_leaves_out_a_line_without_paint():
 
 
 def test_rows_that_cannot_be_scored_are_one_error(tmp_path):
-    import json
-
-    from lanefinder.errors import LaneFinderError
-    from lanefinder.evaluate import read_ground_truth, read_predictions
-
     row = {"frame": 0, "h_samples": [700], "left_x": [300.0], "right_x": [900.0]}
     (tmp_path / "gt.jsonl").write_text(json.dumps({**row, "radius_m": 0}) + "\n")  # was a division by zero
     with pytest.raises(LaneFinderError, match="row 1: radius_m is 0"):
@@ -141,4 +145,40 @@ def test_rows_that_cannot_be_scored_are_one_error(tmp_path):
         read_predictions(tmp_path / "p.jsonl")
     (tmp_path / "p.jsonl").write_text(json.dumps({**row, "left_x": "300"}) + "\n")
     with pytest.raises(LaneFinderError, match="left_x must be a list of numbers"):
+        read_predictions(tmp_path / "p.jsonl")
+
+
+_ROWS = [160, 170, 180, 190, 200]
+
+
+@pytest.mark.parametrize(("change", "says"), [
+    ({"frame": "abc"}, "frame must be a whole number"),
+    ({"frame": 1.7}, "frame must be a whole number"),  # was matched as frame 1
+    ({"frame": None}, "frame must be a whole number"),
+    ({"row_distance_m": 5}, "row_distance_m must be a list of numbers"),
+    ({"row_distance_m": ["a"] * 5}, "row_distance_m must be a list of numbers"),
+    ({"lateral": 5}, "lateral must map distances"),
+    ({"lateral": {"6": {"x": [1]}}}, "lateral must map distances"),
+    ({"left_x": 5}, "left_x must be a list of numbers"),
+    ({"h_samples": [200] * 5}, "h_samples must be rows from top to bottom"),
+    ({"offset_m": 1e308}, "offset_m is not a number within"),
+    ({"lanes": [[10 ** 400, 20, 30, 40, 50]]}, "lanes must be lists of numbers"),  # was an OverflowError
+])
+def test_truth_rows_with_fields_of_the_wrong_kind_are_one_error(tmp_path, change, says):
+    # A bad-input campaign: each of these was an internal error (ValueError, TypeError, KeyError,
+    # OverflowError), a silent cut or a table of inf and NaN.
+    row = {"frame": 1, "lanes": [[10, 20, 30, 40, 50]], "h_samples": _ROWS, **change}
+    (tmp_path / "gt.jsonl").write_text(json.dumps(row) + "\n")
+    with pytest.raises(LaneFinderError, match=f"row 1: {says}"):
+        read_ground_truth(tmp_path / "gt.jsonl")
+
+
+def test_a_frame_given_twice_is_refused(tmp_path):
+    # The last of the two used to win without a word (the truth of the first was lost).
+    row = {"raw_file": "a.jpg", "lanes": [[10, 20, 30, 40, 50]], "h_samples": _ROWS}
+    (tmp_path / "gt.jsonl").write_text(json.dumps(row) + "\n" + json.dumps(row) + "\n")
+    with pytest.raises(LaneFinderError, match=r"row 2: frame 'a\.jpg' is given twice"):
+        read_ground_truth(tmp_path / "gt.jsonl")
+    (tmp_path / "p.jsonl").write_text(json.dumps(row) + "\n" + json.dumps(row) + "\n")
+    with pytest.raises(LaneFinderError, match="given twice"):
         read_predictions(tmp_path / "p.jsonl")

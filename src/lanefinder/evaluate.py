@@ -15,6 +15,7 @@ rule for rule:
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -281,10 +282,24 @@ def _read_jsonl(path: Path) -> list[dict]:
 
 
 _ROW_NUMBERS = ("offset_m", "curvature_per_m", "radius_m", "run_time")
+#: No pixel, distance or time in a row is this large: larger numbers are refused (sums and fits of
+#: them would overflow).
+_MAX_ABS = 1e9
 
 
 def _is_number(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= _MAX_ABS  # NaN fails too
+
+
+def _numbers(v: object) -> bool:
+    return isinstance(v, list) and all(_is_number(x) for x in v)
+
+
+def _check_lateral(lateral: object) -> bool:
+    """Tell whether a truth row's ``lateral`` is ``{distance: {"x": [...], "y": row, "m_per_px": scale}}``."""
+    return isinstance(lateral, dict) and all(
+        isinstance(at, dict) and _numbers(at.get("x")) and _is_number(at.get("y")) and _is_number(at.get("m_per_px"))
+        for at in lateral.values())
 
 
 def _check_row(row: object, path: Path | str, i: int) -> dict:
@@ -296,12 +311,33 @@ def _check_row(row: object, path: Path | str, i: int) -> dict:
             isinstance(lane, list) and all(_is_number(v) for v in lane) for lane in lanes):
         raise LaneFinderError(f"{path}: row {i}: lanes must be lists of numbers")
     ys = row.get("h_samples", [])
-    if not isinstance(ys, list) or not all(_is_number(v) for v in ys):
+    if not _numbers(ys):
         raise LaneFinderError(f"{path}: row {i}: h_samples must be a list of numbers")
+    if any(b <= a for a, b in itertools.pairwise(ys)):
+        raise LaneFinderError(f"{path}: row {i}: h_samples must be rows from top to bottom, each below the last")
     for k in _ROW_NUMBERS:
         if row.get(k) is not None and not _is_number(row[k]):
-            raise LaneFinderError(f"{path}: row {i}: {k} is not a number ({row[k]!r})")
+            raise LaneFinderError(f"{path}: row {i}: {k} is not a number within +-{_MAX_ABS:g} ({row[k]!r})")
+    frame = row.get("frame")
+    if "frame" in row and not (_is_number(frame) and float(frame).is_integer() and frame >= 0):  # type: ignore[arg-type]
+        raise LaneFinderError(f"{path}: row {i}: frame must be a whole number, 0 or more ({frame!r})")
+    for k in ("left_x", "right_x", "row_distance_m"):
+        if row.get(k) is not None and not _numbers(row[k]):
+            raise LaneFinderError(f"{path}: row {i}: {k} must be a list of numbers")
+    if row.get("lateral") is not None and not _check_lateral(row["lateral"]):
+        raise LaneFinderError(f"{path}: row {i}: lateral must map distances to x (numbers), y and m_per_px")
     return row
+
+
+def _by_key(rows: list[dict], path: Path | str) -> dict[str, dict]:
+    """Give the rows by frame key, refusing a key given twice (one of the two would be dropped)."""
+    out: dict[str, dict] = {}
+    for i, r in enumerate(rows, 1):
+        k = _key(r)
+        if k in out:
+            raise LaneFinderError(f"{path}: row {i}: frame {k!r} is given twice")
+        out[k] = r
+    return out
 
 
 def _key(row: dict) -> str:
@@ -348,7 +384,7 @@ def read_ground_truth(path: str | Path) -> dict[str, dict]:
             raise LaneFinderError(f"{path}: ground truth rows need lanes and h_samples")
         if any(len(lane) != len(r["h_samples"]) for lane in r["lanes"]):
             raise LaneFinderError(f"{path}: row {i}: every lane needs one x per h_sample")
-    return {_key(r): r for r in rows}
+    return _by_key(rows, path)
 
 
 def read_predictions(path: str | Path) -> dict[str, dict]:
@@ -381,7 +417,7 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
 
     p = Path(path)
     rows = read_telemetry(p) if p.suffix.lower() in (".csv", ".parquet") else _read_jsonl(p)
-    out = {}
+    out = []
     for i, r in enumerate(rows, 1):
         _check_row(r, p, i)
         if "lanes" not in r:
@@ -389,13 +425,10 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
             if missing:
                 raise LaneFinderError(f"{p}: row {i} has no lanes (TuSimple) and no {' or '.join(missing)} "
                                       "(lanefinder telemetry has left_x and right_x)")
-            for k in ("left_x", "right_x"):
-                if r[k] is not None and not (isinstance(r[k], list) and all(_is_number(v) for v in r[k])):
-                    raise LaneFinderError(f"{p}: row {i}: {k} must be a list of numbers")
             lanes = [lane for lane in (r.get("left_x"), r.get("right_x")) if lane and any(v >= 0 for v in lane)]
             r = {**r, "lanes": lanes}
-        out[_key(r)] = r
-    return out
+        out.append(r)
+    return _by_key(out, p)
 
 
 def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
