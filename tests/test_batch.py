@@ -280,3 +280,28 @@ def test_the_summary_s_setup_is_the_one_the_run_started_from(tmp_path):
         used = birdseye_config_used(cfg, camera_from_config(cfg, (1280, 720)), (1280, 720))
         assert setup["src"] == [list(p) for p in used.src]  # for another lens, its nominal set-up
     assert used.src != Config().birdseye.src
+
+
+def test_odd_file_names_and_lists_and_an_output_inside_the_input(tmp_path):
+    # A bad-input campaign: a legal 250-character name failed its video ("File name too long" for
+    # OUT/.staging/video=<id>); a name in another script became the id "_"; a list saved with a
+    # byte-order mark lost its first video; and with the output folder inside the input folder,
+    # the re-run of a `--video` batch found its own output video and refused.
+    from lanefinder.batch import _video_ids
+
+    long_name, other = "x" * 250, "日本語"
+    ids = _video_ids([f"/v/{long_name}.mp4", f"/v/{other}.mp4", "/w/ünï cödé.mp4"], {})
+    assert len(ids[f"/v/{long_name}.mp4"]) <= 130 and ids[f"/v/{long_name}.mp4"].startswith("x" * 120 + "-")
+    assert ids[f"/v/{other}.mp4"].startswith("video-") and ids["/w/ünï cödé.mp4"] == "_n_c_d_"
+    clash = _video_ids(["/v/a.mp4", "/w/a.mp4"], {})  # a clash: the second takes its path's tag, as before
+    assert clash["/v/a.mp4"] == "a" and len(clash["/w/a.mp4"]) == 8 and clash["/w/a.mp4"].startswith("a-")
+
+    src = tmp_path / "in"
+    (src / "out" / "videos").mkdir(parents=True)
+    shutil.copy(CLIPS / "challenge_3-7s.mp4", src / "a.mp4")
+    shutil.copy(CLIPS / "challenge_3-7s.mp4", src / "out" / "videos" / "a.mp4")  # what --video wrote
+    assert [Path(p).name for p in find_inputs([src], skip=src / "out")] == ["a.mp4"]
+    assert len(find_inputs([src])) == 2
+    listing = tmp_path / "list.txt"
+    listing.write_bytes(b"\xef\xbb\xbf" + str(src / "a.mp4").encode() + b"\r\n")
+    assert find_inputs([listing]) == [str(src / "a.mp4")]

@@ -242,7 +242,7 @@ def _norm(s: str) -> str:
     return os.path.abspath(local) if local is not None else s
 
 
-def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
+def find_inputs(inputs: Sequence[str | Path], skip: str | Path | None = None) -> list[str]:
     """List the videos named by files, folders (searched recursively) and text files of paths.
 
     Parameters
@@ -250,6 +250,9 @@ def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
     inputs : sequence of str or Path
         Video files, folders, or ``.txt``/``.lst`` files with one path or URL a line (blank
         lines and lines starting with ``#`` are skipped); local paths or fsspec URLs.
+    skip : str or Path, optional
+        A local folder whose videos a folder's search leaves out (the batch's output, which
+        ``--video`` writes videos into, when it lies in an input folder).
 
     Returns
     -------
@@ -268,6 +271,7 @@ def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
     ['challenge_3-7s.mp4', 'harder_challenge_0-4s.mp4', 'project_37-47s.mp4']
     """
     found: list[str] = []
+    skipped = os.path.abspath(local) + os.sep if skip is not None and (local := _local(str(skip))) else None
     for raw in inputs:
         s = str(raw)
         fs, path = _fs(s)
@@ -280,7 +284,8 @@ def find_inputs(inputs: Sequence[str | Path]) -> list[str]:
             raise LaneFinderError(f"input not found: {s}")
         if isdir:
             files = sorted(p for p in fs.find(path) if p.lower().endswith(VIDEO_SUFFIXES)
-                           and not posixpath.basename(p).startswith("."))
+                           and not posixpath.basename(p).startswith(".")
+                           and not (skipped and _local(s) is not None and os.path.abspath(p).startswith(skipped)))
             found += [_rebuild(s, fs, p) for p in files]
         elif path.lower().endswith(LIST_SUFFIXES):
             found += _read_list(fs, path, s)
@@ -306,7 +311,7 @@ def _read_list(fs, path: str, given: str) -> list[str]:
         raise LaneFinderError(f"cannot read the list of inputs {given}: {e}") from None
     base = posixpath.dirname(path)
     out = []
-    for line in text.splitlines():
+    for line in text.removeprefix("\ufeff").splitlines():  # a byte-order mark (Windows Notepad) is no path
         line = line.strip()
         if not line or line.startswith("#"):
             continue
@@ -423,6 +428,10 @@ def plan_segments(video_id: str, url: str, duration_s: float, fps: float, segmen
             for i in range(n)]
 
 
+#: The longest name taken whole from a file's name for its video id (longer ones are cut and tagged).
+_MAX_ID_CHARS = 120
+
+
 def _video_ids(keys: Sequence[str], known: dict[str, str]) -> dict[str, str]:
     """Give every input a stable, unique, file-safe name (its partition value)."""
     ids = dict(known)
@@ -430,10 +439,15 @@ def _video_ids(keys: Sequence[str], known: dict[str, str]) -> dict[str, str]:
     for k in keys:
         if k in ids:
             continue
-        stem = re.sub(r"[^A-Za-z0-9._-]+", "_", posixpath.splitext(posixpath.basename(k.rstrip("/")))[0]) or "video"
+        stem = re.sub(r"[^A-Za-z0-9._-]+", "_", posixpath.splitext(posixpath.basename(k.rstrip("/")))[0])
+        tag = hashlib.blake2b(k.encode(), digest_size=3).hexdigest()
+        if not re.search(r"[A-Za-z0-9]", stem):  # a name of other scripts only: nothing of it is left
+            stem = f"video-{tag}"
+        elif len(stem) > _MAX_ID_CHARS:  # a folder's name (.staging/video=<id>) must stay within 255 bytes
+            stem = f"{stem[:_MAX_ID_CHARS]}-{tag}"
         name = stem
         if name in used:
-            name = f"{stem}-{hashlib.blake2b(k.encode(), digest_size=3).hexdigest()}"
+            name = f"{stem}-{tag}"
         ids[k] = name
         used.add(name)
     return ids
@@ -747,8 +761,8 @@ def run_batch(inputs: Sequence[str | Path], outdir: str | Path, config: Config |
     t0 = time.perf_counter()
     if isinstance(inputs, (str, Path)):  # one input (a string is a sequence of characters)
         inputs = [inputs]
-    keys = find_inputs(inputs)
     out = str(outdir)
+    keys = find_inputs(inputs, skip=out)
     fs, root = _fs(out)
     _check_outdir(fs, root, out, keys)
     entries = _load_manifest(fs, root)
