@@ -243,3 +243,15 @@ def test_eval_reads_parquet_telemetry_and_names_its_row(tmp_path):
                     for ext in ("csv", "parquet"))
     assert parquet.returncode == 0, parquet.stderr
     assert parquet.stdout == csv.stdout and "\ndrive " in parquet.stdout
+
+
+def test_batch_and_review_refuse_a_config_whose_camera_file_is_missing(tmp_path):
+    # A bad-input campaign: `video` refused such a config, but `batch` started its cluster and
+    # failed every video, and `review` served a page whose every inspection failed (and whose
+    # Save wrote a config no command could load).
+    (tmp_path / "c.toml").write_text('[camera]\nmodel = "camera.json"\n')
+    clip = str(CLIPS / "challenge_3-7s.mp4")
+    for args in (("batch", clip, "-o", str(tmp_path / "out"), "-c", str(tmp_path / "c.toml"), "--workers", "1"),
+                 ("review", clip, "-c", str(tmp_path / "c.toml"), "--port", "0")):
+        assert_one_line_error(run(*args), "camera file not found")
+    assert not (tmp_path / "out").exists()

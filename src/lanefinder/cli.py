@@ -129,9 +129,14 @@ def main(ctx: click.Context, verbose: bool) -> None:
 
 
 def _config(path: str | None):
+    """Load a config; the camera file it names must exist and describe a lens (checked before any work)."""
     from .config import load_config
+    from .pipeline import camera_from_config
 
-    return load_config(path)
+    cfg = load_config(path)
+    if path is not None:
+        camera_from_config(cfg)
+    return cfg
 
 
 def _board(text: str) -> tuple[int, int]:

@@ -947,4 +947,8 @@ def load_review(path: str | Path, config_path: str | Path | None = None,
     lanefinder.errors.LaneFinderError: not found: no/such/folder
     """
     cfg = load_config(config_path) if config_path else Config()
+    if config_path:
+        from .pipeline import camera_from_config
+
+        camera_from_config(cfg)  # the camera file it names must exist: else every inspection would fail
     return Review(path, cfg, config_path, telemetry)
