@@ -198,6 +198,11 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         (["config", "--check", "seg.toml"], "segment_s must be 0 (never split) or at least 1 s"),
         # a contact sheet's size without the sheet
         (["video", str(CLIP), "--telemetry", "t.jsonl", "--sheet-frames", "40"], "needs --contact-sheet"),
+        # a third campaign: offsets of 1e308 made the plot's scaling fail (LinAlgError, an internal error)
+        (["plot", "huge.jsonl", "-o", "p.png"], "offset_m is beyond +-1e+09 in row 1"),
+        (["calibrate", *[str(CAL / "calibration2.jpg")] * 3, "-o", "c.json"], "the same photo"),
+        (["setup", "--straight", str(TEST_IMAGES / "straight_lines1.jpg"), "--straight",
+          str(TEST_IMAGES / "straight_lines1.jpg"), "-o", "s.toml"], "the same frame"),
     ],
 )
 def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, args, needle):
@@ -206,6 +211,7 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     (tmp_path / "ab.csv").write_text("a,b\n1,2\n")
     (tmp_path / "nan_t.csv").write_text("frame,time_s,radius_m\n0,nan,500\n1,nan,600\n")
     (tmp_path / "seg.toml").write_text("[batch]\nsegment_s = 0.001\n")
+    (tmp_path / "huge.jsonl").write_text('{"frame": 0, "time_s": 0, "offset_m": 1e308}\n')
     (tmp_path / "empty.csv").write_text("")
     (tmp_path / "nocam.toml").write_text('[camera]\nmodel = "nope.json"\n')
     (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],

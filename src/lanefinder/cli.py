@@ -159,11 +159,12 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
     """Calibrate the camera from chessboard PHOTOS (files or folders)."""
     from .camera import calibrate as run
     from .camera import calibration_photos, save_camera
-    from .io import check_not_input
+    from .io import check_distinct, check_not_input
 
     if Path(output).suffix.lower() != ".json":
         raise LaneFinderError(f"the camera file is written as JSON: name it .json, not {Path(output).name}")
     paths = calibration_photos(photos)
+    check_distinct(paths, "photo")
     check_not_input(output, paths)
     t0 = time.perf_counter()
     cam = run(paths, _board(board))
@@ -441,13 +442,23 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
     from .autosetup import SetupOptions, auto_setup, preview, straight_frames_from_video
     from .camera import load_camera
     from .config import SETUP_SECTIONS, dump_config
-    from .io import OutputSet, atomic_write_text, check_outputs, input_file, list_images, read_image, write_image
+    from .io import (
+        OutputSet,
+        atomic_write_text,
+        check_distinct,
+        check_outputs,
+        input_file,
+        list_images,
+        read_image,
+        write_image,
+    )
 
     if bool(straight) == bool(video_path):
         raise LaneFinderError("give straight-road frames with --straight, or a video with --video")
     fmt = _config_format(output)
     prev = Path(output).with_name(Path(output).stem + "_preview.png")
     paths = [Path(video_path)] if video_path else list_images(straight)
+    check_distinct(paths, "frame")
     check_outputs([output, prev], _setup_inputs(paths, camera_path))  # before any work
     camera = load_camera(camera_path) if camera_path else None
     opts = SetupOptions(lane_width_m=lane_width_m, lookahead_m=lookahead_m, bottom_fraction=bottom_fraction,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import signal
@@ -23,6 +24,7 @@ __all__ = [
     "OutputSet",
     "atomic_path",
     "atomic_write_text",
+    "check_distinct",
     "check_not_input",
     "check_outputs",
     "encode_image",
@@ -210,6 +212,44 @@ def json_lines(text: str, path: str | Path) -> list:
             short = ", cut short?" if n == len(lines) and not text.rstrip(" \t").endswith("\n") else ""
             raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
     return out
+
+
+def check_distinct(paths: Iterable[Path], what: str = "photo") -> None:
+    """Refuse a file given twice: under two names, through a link, or as a copy (the same bytes).
+
+    A photo or frame counted twice makes a calibration or a set-up look surer than it is (and
+    passes a rule of "at least three").
+
+    Parameters
+    ----------
+    paths : iterable of Path
+        The files.
+    what : str, optional
+        What they are, for the message.
+
+    Raises
+    ------
+    LaneFinderError
+        Naming the first two that are the same.
+
+    Examples
+    --------
+    >>> check_distinct([Path("data/test_images/test1.jpg"), Path("data/test_images/test2.jpg")])
+    >>> check_distinct([Path("data/test_images/test1.jpg")] * 2)
+    Traceback (most recent call last):
+    ...
+    lanefinder.errors.LaneFinderError: data/test_images/test1.jpg and data/test_images/test1.jpg are the same photo: ...
+    """
+    seen: dict[tuple[int, str], Path] = {}
+    for p in paths:
+        try:
+            data = p.read_bytes()
+        except OSError:
+            continue  # unreadable: the reader that needs it says so
+        key = (len(data), hashlib.blake2b(data, digest_size=16).hexdigest())
+        if key in seen:
+            raise LaneFinderError(f"{seen[key]} and {p} are the same {what}: give each once")
+        seen[key] = p
 
 
 def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path]:

@@ -17,6 +17,10 @@ PLOT_FORMATS = ("png", "pdf", "svg")
 _PLOTTED = ("radius_m", "offset_m", "width_m", "left_conf", "right_conf")
 
 
+#: No value in telemetry is this large (a plot of larger ones fails to scale its axes).
+_MAX_ABS = 1e9
+
+
 def plot_telemetry(rows: list[dict], path: str | Path) -> None:
     """Plot radius, offset, width and line confidences over time, one panel each, as a PNG.
 
@@ -60,15 +64,22 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
 
     def col(key: str) -> np.ndarray:
         try:
-            return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
-        except (TypeError, ValueError):
+            v = np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
+        except (TypeError, ValueError, OverflowError):
             raise LaneFinderError(f"{key} is not a number in every row of the telemetry") from None
+        if (big := np.flatnonzero(np.abs(v) > _MAX_ABS)).size:  # matplotlib cannot scale an axis to 1e308
+            raise LaneFinderError(f"{key} is beyond +-{_MAX_ABS:g} in row {big[0] + 1} of the telemetry "
+                                  f"({v[big[0]]:g})")
+        return v
 
     t = col("time_s")
     if not np.isfinite(t).any():
         raise LaneFinderError("time_s is not a number in any row of the telemetry: nothing to plot against")
     fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
-    axes[0].semilogy(t, col("radius_m"), lw=1)
+    radius = col("radius_m")
+    radius[radius <= 0] = np.nan  # no radius is 0 or less: not drawn (a log axis has no place for it)
+    if np.isfinite(radius).any():
+        axes[0].semilogy(t, radius, lw=1)
     axes[0].set_ylabel("radius (m)")
     axes[1].plot(t, col("offset_m"), lw=1)
     axes[1].axhline(0, color="grey", lw=0.5)
