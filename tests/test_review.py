@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import socket
@@ -178,6 +179,18 @@ def test_a_video_with_its_telemetry_and_bad_paths(tmp_path):
     assert Review(tmp_path / "h.mp4").videos["h"].summary["frames"] == 100
     with pytest.raises(LaneFinderError, match="not a lanefinder batch folder"):
         Review(CLIPS)
+    # A bad-input campaign: a row whose left_x was not numbers made the frame endpoint an HTTP 500;
+    # a negative frame was "has no frame number"; a repeated frame was reported as an event-row error.
+    from lanefinder.telemetry import read_telemetry
+
+    rows = read_telemetry(tmp_path / "h.parquet")
+    for change, says in (({"left_x": ["a"] * 32}, "row 1: left_x must be a list of numbers"),
+                         ({"frame": -5}, r"row 1: frame must be a whole number, 0 or more \(-5\)"),
+                         ({"frame": 1}, "row 2: frame 1 is given twice")):
+        bad = [{**rows[0], **change}, *rows[1:]]
+        (tmp_path / "h.jsonl").write_text("".join(json.dumps(r, default=float) + "\n" for r in bad))
+        with pytest.raises(LaneFinderError, match=says):
+            Review(tmp_path / "h.mp4", telemetry=tmp_path / "h.jsonl").videos["h"].rows()
 
 
 # -- in a real browser ----------------------------------------------------------------------------

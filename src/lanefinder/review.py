@@ -16,6 +16,7 @@ from __future__ import annotations
 import base64
 import contextlib
 import json
+import math
 import threading
 import time
 from collections import OrderedDict
@@ -197,12 +198,25 @@ class VideoSource:
             rows: list[dict] = []
             for p in self.telemetry:
                 rows += read_telemetry(p)
+            by_frame: dict[int, dict] = {}
             for i, r in enumerate(rows, 1):
                 r.pop("video", None)
-                if not isinstance(r.get("frame"), int) or isinstance(r.get("frame"), bool) or r["frame"] < 0:
-                    raise LaneFinderError(f"telemetry of {self.video_id}: row {i} has no frame number")
+                where = f"telemetry of {self.video_id}: row {i}"
+                frame = r.get("frame")
+                if frame is None:
+                    raise LaneFinderError(f"{where} has no frame number")
+                if not isinstance(frame, int) or isinstance(frame, bool) or frame < 0:
+                    raise LaneFinderError(f"{where}: frame must be a whole number, 0 or more ({frame!r})")
+                if frame in by_frame:
+                    raise LaneFinderError(f"{where}: frame {frame} is given twice")
+                for k in ("left_x", "right_x", "h_samples"):  # what the page draws: a bad one was an HTTP 500
+                    v = r.get(k)
+                    if v is not None and not (isinstance(v, list) and all(
+                            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+                        raise LaneFinderError(f"{where}: {k} must be a list of numbers")
+                by_frame[frame] = r
             self._rows = sorted(rows, key=lambda r: r["frame"])
-            self._by_frame = {r["frame"]: r for r in self._rows}
+            self._by_frame = by_frame
         return self._rows
 
     def row_at(self, frame: int) -> dict | None:
