@@ -203,6 +203,9 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         (["calibrate", *[str(CAL / "calibration2.jpg")] * 3, "-o", "c.json"], "the same photo"),
         (["setup", "--straight", str(TEST_IMAGES / "straight_lines1.jpg"), "--straight",
           str(TEST_IMAGES / "straight_lines1.jpg"), "-o", "s.toml"], "the same frame"),
+        (["config", "--check", "twice.json"], "'n_windows' is given twice"),  # JSON and YAML kept the last
+        (["config", "--check", "twice.yaml"], "'n_windows' is given twice"),
+        (["config", "--check", "band.toml"], "a band is (low, high): 200 is above 100"),  # it selected nothing
     ],
 )
 def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, args, needle):
@@ -212,6 +215,9 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     (tmp_path / "nan_t.csv").write_text("frame,time_s,radius_m\n0,nan,500\n1,nan,600\n")
     (tmp_path / "seg.toml").write_text("[batch]\nsegment_s = 0.001\n")
     (tmp_path / "huge.jsonl").write_text('{"frame": 0, "time_s": 0, "offset_m": 1e308}\n')
+    (tmp_path / "twice.json").write_text('{"search": {"n_windows": 7, "n_windows": 9}}')
+    (tmp_path / "twice.yaml").write_text("search:\n  n_windows: 7\n  n_windows: 9\n")
+    (tmp_path / "band.toml").write_text("[threshold.sobel_hls]\nx_thresh = [200, 100]\n")
     (tmp_path / "empty.csv").write_text("")
     (tmp_path / "nocam.toml").write_text('[camera]\nmodel = "nope.json"\n')
     (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],
@@ -261,3 +267,10 @@ def test_batch_and_review_refuse_a_config_whose_camera_file_is_missing(tmp_path)
                  ("review", clip, "-c", str(tmp_path / "c.toml"), "--port", "0")):
         assert_one_line_error(run(*args), "camera file not found")
     assert not (tmp_path / "out").exists()
+
+
+def test_a_config_saved_with_a_byte_order_mark_is_read(tmp_path):
+    # Windows Notepad starts UTF-8 files with one; the config was refused as invalid TOML at line 1.
+    (tmp_path / "c.toml").write_bytes(b"\xef\xbb\xbf[search]\nn_windows = 7\n")
+    p = run("config", "--check", str(tmp_path / "c.toml"))
+    assert p.returncode == 0 and "n_windows = 7" in p.stdout, p.stderr

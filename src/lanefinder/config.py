@@ -10,9 +10,18 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Literal, get_args
+from typing import Annotated, Any, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from .errors import LaneFinderError
 
@@ -56,6 +65,17 @@ Coordinate = Annotated[float, Field(ge=-1e5, le=1e5)]
 Point = tuple[Coordinate, Coordinate]
 Fraction = Annotated[float, Field(ge=0, le=1)]
 Byte = Annotated[int, Field(ge=0, le=255)]
+
+
+def _low_high(band: tuple) -> tuple:
+    """Refuse a band whose low end lies above its high end (it would select nothing)."""
+    if band[0] > band[1]:
+        raise ValueError(f"a band is (low, high): {band[0]} is above {band[1]}")
+    return band
+
+
+#: A band of channel values, (low, high), 0-255.
+ByteBand = Annotated[tuple[Byte, Byte], AfterValidator(_low_high)]
 #: A frame's width or height, pixels (16K video at most).
 FrameSide = Annotated[int, Field(ge=16, le=16384)]
 #: A bird's-eye view's width or height, pixels.
@@ -239,12 +259,12 @@ class SobelHlsConfig(_Section):
     """
 
     kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
-    x_thresh: tuple[Byte, Byte] = (20, 255)
-    y_thresh: tuple[Byte, Byte] = (25, 255)
-    mag_thresh: tuple[Byte, Byte] = (30, 255)
-    dir_thresh: tuple[Annotated[float, Field(ge=0, le=math.pi / 2)], Annotated[float, Field(ge=0, le=math.pi / 2)]] = (
-        0.0, 0.9)
-    s_thresh: tuple[Byte, Byte] = (150, 255)
+    x_thresh: ByteBand = (20, 255)
+    y_thresh: ByteBand = (25, 255)
+    mag_thresh: ByteBand = (30, 255)
+    dir_thresh: Annotated[tuple[Annotated[float, Field(ge=0, le=math.pi / 2)],
+                                Annotated[float, Field(ge=0, le=math.pi / 2)]], AfterValidator(_low_high)] = (0.0, 0.9)
+    s_thresh: ByteBand = (150, 255)
 
 
 class ColorConfig(_Section):
@@ -261,9 +281,9 @@ class ColorConfig(_Section):
     (150, 255)
     """
 
-    hls_l: tuple[Byte, Byte] = (210, 255)
-    luv_l: tuple[Byte, Byte] = (215, 255)
-    lab_b: tuple[Byte, Byte] = (150, 255)
+    hls_l: ByteBand = (210, 255)
+    luv_l: ByteBand = (215, 255)
+    lab_b: ByteBand = (150, 255)
 
 
 class YcrcbConfig(_Section):
@@ -283,9 +303,9 @@ class YcrcbConfig(_Section):
     """
 
     kernel: Literal[3, 5, 7, 9, 11, 13, 15] = 3
-    ycrcb_y_grad: tuple[Byte, Byte] = (30, 255)
-    yuv_y: tuple[Byte, Byte] = (205, 255)
-    rgb_r: tuple[Byte, Byte] = (215, 255)
+    ycrcb_y_grad: ByteBand = (30, 255)
+    yuv_y: ByteBand = (205, 255)
+    rgb_r: ByteBand = (215, 255)
 
 
 class RidgeConfig(_Section):
@@ -1253,6 +1273,31 @@ def config_from_dict(data: dict, source: str = "") -> Config:
         raise LaneFinderError(_format_error(e, source or "(dict)")) from None
 
 
+def _without_repeats(pairs: list[tuple[str, Any]]) -> dict:
+    """Make a mapping of key-value pairs, refusing a key given twice (TOML refuses it; JSON and YAML kept the last)."""
+    out: dict = {}
+    for k, v in pairs:
+        if k in out:
+            raise ValueError(f"{k!r} is given twice")
+        out[k] = v
+    return out
+
+
+def _yaml_without_repeats(text: str) -> Any:
+    """Parse YAML safely, refusing a key given twice in a mapping."""
+    import yaml
+
+    class _Loader(yaml.SafeLoader):
+        pass
+
+    def mapping(loader: yaml.SafeLoader, node: yaml.MappingNode) -> dict:
+        return _without_repeats([(loader.construct_object(k, deep=True), loader.construct_object(v, deep=True))
+                                 for k, v in node.value])
+
+    _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+    return yaml.load(text, Loader=_Loader)  # a SafeLoader with its mapping constructor changed
+
+
 def load_config(path: str | Path | None) -> Config:
     """Read a TOML, YAML or JSON configuration file.
 
@@ -1289,7 +1334,7 @@ def load_config(path: str | Path | None) -> Config:
     if not p.is_file():
         raise LaneFinderError(f"config file not found: {p}")
     try:
-        text = p.read_text()
+        text = p.read_text().removeprefix("\ufeff")  # a byte-order mark (Windows Notepad) is not part of it
     except (UnicodeDecodeError, OSError) as e:
         raise LaneFinderError(f"config {p} cannot be read as text: {e}".splitlines()[0]) from None
     suffix = p.suffix.lower()
@@ -1302,11 +1347,9 @@ def load_config(path: str | Path | None) -> Config:
 
             data = tomllib.loads(text)
         elif suffix in (".yaml", ".yml"):
-            import yaml
-
-            data = yaml.safe_load(text) or {}
+            data = _yaml_without_repeats(text) or {}
         elif suffix == ".json":
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=_without_repeats)
         else:
             raise LaneFinderError(f"config {p}: use a .toml, .yaml or .json file")
     except LaneFinderError:
