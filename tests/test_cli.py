@@ -206,6 +206,9 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         (["config", "--check", "twice.json"], "'n_windows' is given twice"),  # JSON and YAML kept the last
         (["config", "--check", "twice.yaml"], "'n_windows' is given twice"),
         (["config", "--check", "band.toml"], "a band is (low, high): 200 is above 100"),  # it selected nothing
+        (["synth", "--frames", "1", "-o", ""], "is empty"),  # it wrote into the current folder
+        (["plot", "t.csv", "-o", "."], "not ."),  # the message named nothing
+        (["synth", "--frames", "1", "--camera", "tiny.json", "-o", "seq"], "too small to find a lane in"),
     ],
 )
 def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, args, needle):
@@ -227,6 +230,8 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     big.update(dist_coeffs=[0, 0, 0, 0, 0], image_size=[16384, 16384],
                camera_matrix=[[14000, 0, 8191.5], [0, 14000, 8191.5], [0, 0, 1]])
     (tmp_path / "big.json").write_text(json.dumps(big))
+    big.update(image_size=[64, 36], camera_matrix=[[58, 0, 31.5], [0, 58, 17.5], [0, 0, 1]])
+    (tmp_path / "tiny.json").write_text(json.dumps(big))  # `video` refused the frames synth wrote with it
     before = sorted(p.name for p in tmp_path.iterdir())
     assert_one_line_error(run(*args, cwd=tmp_path), needle)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written

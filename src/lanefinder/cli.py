@@ -128,6 +128,13 @@ def main(ctx: click.Context, verbose: bool) -> None:
     ctx.obj = {"verbose": verbose}
 
 
+def _not_empty(_ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """Refuse an empty output path (it was taken as the current folder, or named nothing in the message)."""
+    if value is not None and not value.strip():
+        raise click.BadParameter("is empty: name a file or folder", param=param)
+    return value
+
+
 def _config(path: str | None):
     """Load a config; the camera file it names must exist and describe a lens (checked before any work)."""
     from .config import load_config
@@ -154,7 +161,8 @@ def _board(text: str) -> tuple[int, int]:
 @main.command()
 @click.argument("photos", nargs=-1, required=True)
 @click.option("--board", default="9x6", show_default=True, help="Inner corners, COLSxROWS.")
-@click.option("-o", "--output", default="camera.json", show_default=True, help="Camera file to write (JSON).")
+@click.option("-o", "--output", callback=_not_empty,
+              default="camera.json", show_default=True, help="Camera file to write (JSON).")
 def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
     """Calibrate the camera from chessboard PHOTOS (files or folders)."""
     from .camera import calibrate as run
@@ -162,7 +170,7 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
     from .io import check_distinct, check_not_input
 
     if Path(output).suffix.lower() != ".json":
-        raise LaneFinderError(f"the camera file is written as JSON: name it .json, not {Path(output).name}")
+        raise LaneFinderError(f"the camera file is written as JSON: name it .json, not {Path(output).name or output}")
     paths = calibration_photos(photos)
     check_distinct(paths, "photo")
     check_not_input(output, paths)
@@ -190,7 +198,8 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
 @click.option("--check", "check", type=click.Path(), help="Validate a config file and print it in full.")
 @click.option("--format", "fmt", type=click.Choice(["toml", "yaml", "json"]),
               help="The format (default: the output file's, else toml).")
-@click.option("-o", "--output", type=click.Path(), help="Write to this file (.toml/.yaml/.json) instead of standard "
+@click.option("-o", "--output", callback=_not_empty,
+              type=click.Path(), help="Write to this file (.toml/.yaml/.json) instead of standard "
               "output.")
 def config_cmd(default: bool, check: str | None, fmt: str | None, output: str | None) -> None:
     """Print (or check) the configuration that -c takes."""
@@ -240,7 +249,8 @@ def _cell(v: float | None, fmt: str) -> str:
 @main.command()
 @click.argument("images", nargs=-1, required=True)
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
-@click.option("-o", "--outdir", required=True, type=click.Path(), help="Folder for the annotated images.")
+@click.option("-o", "--outdir", callback=_not_empty,
+              required=True, type=click.Path(), help="Folder for the annotated images.")
 @click.option("--stages", "stages_dir", type=click.Path(), help="Also write the intermediate images here.")
 def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_dir: str | None) -> None:
     """Find the lane in single IMAGES (files or folders) and write annotated copies."""
@@ -276,7 +286,7 @@ def image(images: tuple[str, ...], config_path: str | None, outdir: str, stages_
 # -- video -------------------------------------------------------------------------------
 @main.command()
 @click.argument("src", type=click.Path())
-@click.option("-o", "--output", type=click.Path(),
+@click.option("-o", "--output", callback=_not_empty, type=click.Path(),
               help="Annotated video to write (.mp4, H.264); leave out for telemetry only.")
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
 @click.option("--start", "start_s", type=_Finite(0, 1e7), default=0.0, show_default=True, help="Start, seconds.")
@@ -322,7 +332,8 @@ def video(src: str, output: str | None, config_path: str | None, start_s: float,
 # -- plot --------------------------------------------------------------------------------
 @main.command()
 @click.argument("telemetry", type=click.Path())
-@click.option("-o", "--output", required=True, type=click.Path(), help="Plot to write (.png, .pdf or .svg).")
+@click.option("-o", "--output", callback=_not_empty,
+              required=True, type=click.Path(), help="Plot to write (.png, .pdf or .svg).")
 def plot(telemetry: str, output: str) -> None:
     """Plot radius, offset, width and confidence over time from a TELEMETRY file."""
     from .io import check_not_input
@@ -344,7 +355,8 @@ def plot(telemetry: str, output: str) -> None:
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (default: the Udacity camera).")
 @click.option("--height", "height_m", type=_Finite(0.5, 4.0), default=None, help="Camera height above the road, m.")
 @click.option("--pitch", "pitch_deg", type=_Finite(-10.0, 15.0), default=None, help="Camera pitch, degrees down.")
-@click.option("-o", "--outdir", type=click.Path(), help="Folder for the sequence (required unless --list).")
+@click.option("-o", "--outdir", callback=_not_empty,
+              type=click.Path(), help="Folder for the sequence (required unless --list).")
 @click.option("--list", "list_only", is_flag=True, help="List the scenarios and exit.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--randomise", is_flag=True,
@@ -435,7 +447,8 @@ def _quiet_interrupted_cluster() -> None:
 @click.option("--dash-period", "dash_period_m", type=_Finite(1.0, 50.0), default=12.2, show_default=True,
               help="Dash + gap length, m: fixes the focal length without a camera file (12.2: US federal; "
                    "California paints 14.6).")
-@click.option("-o", "--output", required=True, type=click.Path(), help="Config to write (.toml/.yaml/.json).")
+@click.option("-o", "--output", callback=_not_empty,
+              required=True, type=click.Path(), help="Config to write (.toml/.yaml/.json).")
 def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | None, lookahead_m: float,
           bottom_fraction: float, lane_width_m: float, dash_period_m: float, output: str) -> None:
     """Find the bird's-eye view and its scale for a new camera, from straight-road frames."""
@@ -506,7 +519,8 @@ def setup(straight: tuple[str, ...], video_path: str | None, camera_path: str | 
 # -- batch -------------------------------------------------------------------------------
 @main.command()
 @click.argument("inputs", nargs=-1, required=True)
-@click.option("-o", "--outdir", required=True, help="Output folder (a path or an fsspec URL); a re-run resumes.")
+@click.option("-o", "--outdir", callback=_not_empty,
+              required=True, help="Output folder (a path or an fsspec URL); a re-run resumes.")
 @click.option("-c", "--config", "config_path", type=click.Path(), help="Config file (TOML/YAML/JSON).")
 @click.option("--workers", type=click.IntRange(1, 512), default=None,
               help="Local Dask workers (default: one per core).")

@@ -55,7 +55,8 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
 
     fmt = Path(path).suffix.lower().lstrip(".")
     if fmt not in PLOT_FORMATS:
-        raise LaneFinderError(f"a plot is written as {', '.join('.' + f for f in PLOT_FORMATS)}: not {Path(path).name}")
+        kinds = ", ".join("." + f for f in PLOT_FORMATS)
+        raise LaneFinderError(f"a plot is written as {kinds}: not {Path(path).name or path}")
     if not rows:
         raise LaneFinderError("the telemetry file has no rows")
     if "time_s" not in rows[0] or not any(k in rows[0] for k in _PLOTTED):

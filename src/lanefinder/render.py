@@ -417,7 +417,7 @@ def contact_sheet(thumbs: list[tuple[float, np.ndarray]], cols: int = 5) -> np.n
     thumbs : list of (float, ndarray)
         (time in seconds, BGR thumbnail) pairs, all of one size.
     cols : int
-        Thumbnails per row.
+        Thumbnails per row (fewer when there are fewer thumbnails: the sheet is one row as wide as they are).
 
     Returns
     -------
@@ -434,10 +434,13 @@ def contact_sheet(thumbs: list[tuple[float, np.ndarray]], cols: int = 5) -> np.n
     >>> tiles = [(t, np.zeros((90, 160, 3), np.uint8)) for t in (0.0, 1.5, 3.0)]
     >>> contact_sheet(tiles, cols=2).shape
     (192, 332, 3)
+    >>> contact_sheet(tiles[:1]).shape  # one thumbnail: a sheet of one
+    (98, 168, 3)
     """
     if not thumbs:
         raise LaneFinderError("no frames for a contact sheet")
     th, tw = thumbs[0][1].shape[:2]
+    cols = max(1, min(cols, len(thumbs)))
     rows = (len(thumbs) + cols - 1) // cols
     sheet = np.full((rows * (th + 4) + 4, cols * (tw + 4) + 4, 3), 32, np.uint8)
     for i, (t, img) in enumerate(thumbs):

@@ -1756,8 +1756,8 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     Raises
     ------
     LaneFinderError
-        For an unknown scenario, fewer than one frame, or frames too large to render
-        (:func:`check_render_memory`).
+        For an unknown scenario, fewer than one frame, frames too large to render
+        (:func:`check_render_memory`) or too small to find a lane in.
 
     Examples
     --------
@@ -1784,6 +1784,11 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     out = Path(out_dir)
     cam = camera or udacity_camera()
     check_render_memory(cam.image_size)
+    from .pipeline import MIN_FRAME_PX
+
+    if cam.image_size[0] < MIN_FRAME_PX[0] or cam.image_size[1] < MIN_FRAME_PX[1]:  # `video` would refuse them
+        raise LaneFinderError(f"frames of {cam.image_size[0]}x{cam.image_size[1]} are too small to find a lane in: "
+                              f"at least {MIN_FRAME_PX[0]}x{MIN_FRAME_PX[1]}")
     source = Path(cam.source) if cam.source and Path(cam.source).is_file() else None
     inputs = [source] if source else []
     check_outputs([out / n for n in ("video.mp4", "gt.jsonl", "events_gt.jsonl", "camera.json", "config.toml",
