@@ -207,6 +207,9 @@ def _camera_file(tmp_path: Path, **change) -> Path:
         (["config", "--check", "twice.yaml"], "'n_windows' is given twice"),
         (["config", "--check", "band.toml"], "a band is (low, high): 200 is above 100"),  # it selected nothing
         (["synth", "--frames", "1", "-o", ""], "is empty"),  # it wrote into the current folder
+        (["eval", "--gt", "gt.jsonl", "--pred", "gt.jsonl", "--json", "."], "is a folder"),  # after the table
+        (["eval", "--gt", ".", "--pred", "gt.jsonl"], "is a folder, not a file"),  # was "not found"
+        (["eval", "--gt", "lanes.jsonl", "--pred", "short.jsonl"], "the prediction of frame 'frame/000000' has a"),
         (["plot", "t.csv", "-o", "."], "not ."),  # the message named nothing
         (["synth", "--frames", "1", "--camera", "tiny.json", "-o", "seq"], "too small to find a lane in"),
     ],
@@ -221,6 +224,8 @@ def test_bad_values_that_used_to_hang_crash_or_write_unreadable_files(tmp_path, 
     (tmp_path / "twice.json").write_text('{"search": {"n_windows": 7, "n_windows": 9}}')
     (tmp_path / "twice.yaml").write_text("search:\n  n_windows: 7\n  n_windows: 9\n")
     (tmp_path / "band.toml").write_text("[threshold.sobel_hls]\nx_thresh = [200, 100]\n")
+    (tmp_path / "lanes.jsonl").write_text('{"frame": 0, "h_samples": [700, 710], "lanes": [[300, 301]]}\n')
+    (tmp_path / "short.jsonl").write_text('{"frame": 0, "lanes": [[300]]}\n')  # the message named no frame
     (tmp_path / "empty.csv").write_text("")
     (tmp_path / "nocam.toml").write_text('[camera]\nmodel = "nope.json"\n')
     (tmp_path / "gt.jsonl").write_text(json.dumps({"frame": 0, "h_samples": [700], "left_x": [300],

@@ -399,17 +399,18 @@ def eval_cmd(gt_path: str, pred_path: str, json_path: str | None, name: str) -> 
     from dataclasses import asdict
 
     from .evaluate import evaluate, read_ground_truth, read_predictions
-    from .io import atomic_write_text, check_not_input
+    from .io import atomic_write_text, check_outputs
 
     if json_path:
-        check_not_input(json_path, [gt_path, pred_path])
+        check_outputs([json_path], [gt_path, pred_path])  # before the table: not an input, not a folder
     predictions = read_predictions(pred_path)
     if not predictions:
         raise LaneFinderError(f"{pred_path} holds no predictions (no rows)")
     report = evaluate(read_ground_truth(gt_path), predictions)
     name = name or Path(pred_path).stem
     click.echo(report.table(name))
-    if report.band_accuracy or report.lateral_err_6m_median is not None:  # the truth gives distances
+    if any(v is not None for v in report.band_accuracy.values()) or report.lateral_err_6m_median is not None:
+        # the truth gives distances (TuSimple labels do not)
         click.echo(report.band_table(name))
     if report.missing_frames:
         click.echo(f"{report.missing_frames} ground-truth frame(s) had no prediction (scored as no lane)")

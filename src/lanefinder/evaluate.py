@@ -271,6 +271,8 @@ class EvalReport:
 
 
 def _read_jsonl(path: Path) -> list[dict]:
+    if path.is_dir():
+        raise LaneFinderError(f"{path} is a folder, not a file")
     if not path.is_file():
         raise LaneFinderError(f"not found: {path}")
     try:
@@ -476,6 +478,9 @@ def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:
         if p is None:
             missing += 1
         lanes = p["lanes"] if p else []
+        if any(len(lane) != len(g["h_samples"]) for lane in lanes):
+            raise LaneFinderError(f"the prediction of frame {key!r} has a lane of other than one x per row of its "
+                                  f"truth ({len(g['h_samples'])} h_samples)")
         a, f_p, f_n = bench_frame(lanes, g["lanes"], g["h_samples"], float(p.get("run_time", 0) or 0) if p else 0)
         fp += f_p
         if not g["lanes"]:  # nothing to find: only what is shown counts (as FP)
