@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 
 from lanefinder import Config, load_config
-from lanefinder.review import MAX_BODY_BYTES, Review, create_app
+from lanefinder.errors import LaneFinderError
+from lanefinder.review import MAX_BODY_BYTES, Review, create_app, serve
 from lanefinder.telemetry import read_telemetry
 
 from conftest import CLIPS, ROOT
@@ -399,3 +400,21 @@ def test_telemetry_written_before_the_checks_column_is_reviewed_without_them(tmp
     old = read_telemetry(tmp_path / "h.csv")
     assert check_counts(old) == {} and unchecked_frames(old) is None
     assert all(isinstance(r["checks"], str) for r in read_telemetry(tmp_path / "new.csv"))
+
+
+def test_a_video_replaced_after_its_batch_is_flagged(fleet_dir):
+    # A bad-input campaign: a source video replaced after the batch was shown with the old
+    # telemetry drawn on it, without a word. Now `lanefinder review` warns at start.
+    src = fleet_dir.parent / "in" / "harder.mp4"
+    before = src.stat()
+    assert not any(v.changed for v in Review(fleet_dir).videos.values())
+    try:
+        os.utime(src, (before.st_atime, time.time() + 60))  # as a copy made after the batch would be
+        review = Review(fleet_dir)
+        assert [v.video_id for v in review.videos.values() if v.changed] == ["harder"]
+        said: list[str] = []
+        with pytest.raises(LaneFinderError):  # a port that cannot be bound: it stops after what it says first
+            serve(review, port=-1, echo=said.append)
+        assert said and "1 video(s) were modified after their telemetry was written" in said[0] and "harder" in said[0]
+    finally:
+        os.utime(src, (before.st_atime, before.st_mtime))

@@ -170,6 +170,9 @@ class VideoSource:
         Its lane events.
     summary : dict
         Its summary row (a batch's ``summary.parquet`` row, or figures computed from the telemetry).
+    changed : bool
+        The video file was modified after its telemetry was written (a batch's video replaced
+        since): its frames may not be the ones the telemetry describes.
 
     Examples
     --------
@@ -182,6 +185,7 @@ class VideoSource:
     telemetry: list[Path]
     events: list[dict] = field(default_factory=list)
     summary: dict = field(default_factory=dict)
+    changed: bool = False
     _rows: list[dict] | None = None
     _by_frame: dict[int, dict] | None = None
     _reader: FrameReader | None = None
@@ -442,9 +446,11 @@ def _fleet_videos(root: Path) -> dict[str, VideoSource]:
         local = url[len("file://"):] if url.startswith("file://") else (None if "://" in url else url)
         src = Path(local) if local and Path(local).is_file() else None  # remote sources are not decoded here
         row = summary.get(vid) or {"video": vid, "input": url, "status": e.get("status"), "error": e.get("error")}
-        out[vid] = VideoSource(video_id=vid, source=src,
-                               telemetry=sorted(part.glob("*.parquet")) if part.is_dir() else [],
-                               events=events.get(vid, []), summary=row)
+        parts = sorted(part.glob("*.parquet")) if part.is_dir() else []
+        # A second of slack: file systems keep modification times to a second or two.
+        changed = src is not None and bool(parts) and src.stat().st_mtime > max(q.stat().st_mtime for q in parts) + 1
+        out[vid] = VideoSource(video_id=vid, source=src, telemetry=parts, events=events.get(vid, []), summary=row,
+                               changed=changed)
     return out
 
 
@@ -918,6 +924,10 @@ def serve(review: Review, host: str = "127.0.0.1", port: int = 8765, echo=print)
 
     if host not in ("127.0.0.1", "localhost", "::1"):
         echo(f"warning: serving on {host}: anyone who can reach this address can see the videos and frames")
+    if changed := [v.video_id for v in review.videos.values() if v.changed]:
+        echo(f"warning: {len(changed)} video(s) were modified after their telemetry was written (replaced since the "
+             f"batch?): their frames may not match their lanes: {', '.join(changed[:5])}"
+             f"{' ...' if len(changed) > 5 else ''}")
     try:
         sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
