@@ -284,3 +284,10 @@ def test_a_config_saved_with_a_byte_order_mark_is_read(tmp_path):
     (tmp_path / "c.toml").write_bytes(b"\xef\xbb\xbf[search]\nn_windows = 7\n")
     p = run("config", "--check", str(tmp_path / "c.toml"))
     assert p.returncode == 0 and "n_windows = 7" in p.stdout, p.stderr
+
+
+def test_a_yaml_config_may_merge_a_mapping_and_override_it(tmp_path):
+    # The check for keys given twice must leave YAML's merge key (<<) working, overrides included.
+    (tmp_path / "c.yaml").write_text("search:\n  <<: {n_windows: 9, around_margin_m: 0.5}\n  n_windows: 7\n")
+    p = run("config", "--check", str(tmp_path / "c.yaml"))
+    assert p.returncode == 0 and "n_windows = 7" in p.stdout and "around_margin_m = 0.5" in p.stdout, p.stderr

@@ -182,3 +182,14 @@ def test_a_frame_given_twice_is_refused(tmp_path):
     (tmp_path / "p.jsonl").write_text(json.dumps(row) + "\n" + json.dumps(row) + "\n")
     with pytest.raises(LaneFinderError, match="given twice"):
         read_predictions(tmp_path / "p.jsonl")
+
+
+def test_the_rows_of_a_frame_under_72_rows_may_repeat(tmp_path):
+    # telemetry.h_samples repeats some of its 32 rows on frames 64-71 rows tall (MIN_FRAME_PX allows 64).
+    from lanefinder.telemetry import h_samples
+
+    rows = h_samples(64)
+    assert len(set(rows)) < len(rows)
+    row = {"frame": 0, "h_samples": rows, "lanes": [[10.0] * len(rows)]}
+    (tmp_path / "gt.jsonl").write_text(json.dumps(row) + "\n")
+    assert read_ground_truth(tmp_path / "gt.jsonl")["frame/000000"]["h_samples"] == rows

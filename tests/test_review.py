@@ -408,8 +408,12 @@ def test_a_video_replaced_after_its_batch_is_flagged(fleet_dir):
     src = fleet_dir.parent / "in" / "harder.mp4"
     before = src.stat()
     assert not any(v.changed for v in Review(fleet_dir).videos.values())
+    saved = src.read_bytes()
     try:
-        os.utime(src, (before.st_atime, time.time() + 60))  # as a copy made after the batch would be
+        os.utime(src, (before.st_atime, time.time() + 60))  # a copy made after the batch: the same video
+        assert not any(v.changed for v in Review(fleet_dir).videos.values())
+        shutil.copy(fleet_dir.parent / "in" / "challenge.mp4", src)  # replaced by another
+        os.utime(src, (before.st_atime, time.time() + 60))
         review = Review(fleet_dir)
         assert [v.video_id for v in review.videos.values() if v.changed] == ["harder"]
         said: list[str] = []
@@ -417,4 +421,5 @@ def test_a_video_replaced_after_its_batch_is_flagged(fleet_dir):
             serve(review, port=-1, echo=said.append)
         assert said and "1 video(s) were modified after their telemetry was written" in said[0] and "harder" in said[0]
     finally:
+        src.write_bytes(saved)
         os.utime(src, (before.st_atime, before.st_mtime))

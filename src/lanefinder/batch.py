@@ -283,9 +283,14 @@ def find_inputs(inputs: Sequence[str | Path], skip: str | Path | None = None) ->
         if not exists:
             raise LaneFinderError(f"input not found: {s}")
         if isdir:
+            # The output folder is left out only when it lies inside this one (an input folder inside
+            # the output, or the output itself, is refused by the run, with its reason).
+            inside = os.path.abspath(path) + os.sep
+            leave = skipped if skipped and _local(s) is not None and skipped.startswith(inside) \
+                and skipped != inside else None
             files = sorted(p for p in fs.find(path) if p.lower().endswith(VIDEO_SUFFIXES)
                            and not posixpath.basename(p).startswith(".")
-                           and not (skipped and _local(s) is not None and os.path.abspath(p).startswith(skipped)))
+                           and not (leave and os.path.abspath(p).startswith(leave)))
             found += [_rebuild(s, fs, p) for p in files]
         elif path.lower().endswith(LIST_SUFFIXES):
             found += _read_list(fs, path, s)

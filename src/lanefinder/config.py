@@ -1291,8 +1291,10 @@ def _yaml_without_repeats(text: str) -> Any:
         pass
 
     def mapping(loader: yaml.SafeLoader, node: yaml.MappingNode) -> dict:
-        return _without_repeats([(loader.construct_object(k, deep=True), loader.construct_object(v, deep=True))
-                                 for k, v in node.value])
+        # The keys written in this mapping must differ; a merge (<<) may still be overridden by one.
+        _without_repeats([(loader.construct_object(k, deep=True), None) for k, _ in node.value
+                          if k.tag != "tag:yaml.org,2002:merge"])
+        return loader.construct_mapping(node, deep=True)
 
     _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
     return yaml.load(text, Loader=_Loader)  # a SafeLoader with its mapping constructor changed

@@ -240,16 +240,26 @@ def check_distinct(paths: Iterable[Path], what: str = "photo") -> None:
     ...
     lanefinder.errors.LaneFinderError: data/test_images/test1.jpg and data/test_images/test1.jpg are the same photo: ...
     """
-    seen: dict[tuple[int, str], Path] = {}
+    by_size: dict[int, list[Path]] = {}
     for p in paths:
-        try:
-            data = p.read_bytes()
-        except OSError:
-            continue  # unreadable: the reader that needs it says so
-        key = (len(data), hashlib.blake2b(data, digest_size=16).hexdigest())
-        if key in seen:
-            raise LaneFinderError(f"{seen[key]} and {p} are the same {what}: give each once")
-        seen[key] = p
+        with contextlib.suppress(OSError):  # unreadable: the reader that needs it says so
+            by_size.setdefault(p.stat().st_size, []).append(p)
+    for same_size in by_size.values():
+        if len(same_size) < 2:  # only files of one size can be the same: no other is read
+            continue
+        seen: dict[str, Path] = {}
+        for p in same_size:
+            digest = hashlib.blake2b(digest_size=16)
+            try:
+                with open(p, "rb") as f:
+                    for block in iter(lambda f=f: f.read(1 << 20), b""):
+                        digest.update(block)
+            except OSError:
+                continue
+            key = digest.hexdigest()
+            if key in seen:
+                raise LaneFinderError(f"{seen[key]} and {p} are the same {what}: give each once")
+            seen[key] = p
 
 
 def list_images(inputs: Iterable[str | Path], what: str = "images") -> list[Path]:

@@ -171,8 +171,9 @@ class VideoSource:
     summary : dict
         Its summary row (a batch's ``summary.parquet`` row, or figures computed from the telemetry).
     changed : bool
-        The video file was modified after its telemetry was written (a batch's video replaced
-        since): its frames may not be the ones the telemetry describes.
+        The video file was modified after its telemetry was written and its content hash is not
+        the one the batch recorded (a batch's video replaced since): its frames may not be the
+        ones the telemetry describes.
 
     Examples
     --------
@@ -449,6 +450,10 @@ def _fleet_videos(root: Path) -> dict[str, VideoSource]:
         parts = sorted(part.glob("*.parquet")) if part.is_dir() else []
         # A second of slack: file systems keep modification times to a second or two.
         changed = src is not None and bool(parts) and src.stat().st_mtime > max(q.stat().st_mtime for q in parts) + 1
+        if changed and e.get("content_hash"):  # newer, as a copy of the folder may be: is it another video?
+            from .batch import content_hash
+
+            changed = content_hash(str(src)) != e["content_hash"]
         out[vid] = VideoSource(video_id=vid, source=src, telemetry=parts, events=events.get(vid, []), summary=row,
                                changed=changed)
     return out

@@ -767,7 +767,12 @@ _UNDISTORTED: dict[bytes, np.ndarray] = {}
 
 
 def _remainder(a: np.ndarray, b: float) -> np.ndarray:
-    """Give ``a % b`` for ``b > 0``, the same floats as NumPy's, in about half its time (in place on ``a``)."""
+    """Give ``a % b`` for ``b > 0`` in about half NumPy's time, in place on ``a``.
+
+    The same floats as NumPy's remainder but for the sign of a zero result (NumPy gives +0, this
+    may give -0: the renderer subtracts from it at once).  ``b`` is a Python float or a scalar of
+    ``a``'s dtype (a float64 scalar would make NumPy's remainder of a float32 array float64).
+    """
     m = np.fmod(a, b, out=a)
     np.add(m, b, out=m, where=m < 0)  # NumPy's remainder takes the divisor's sign the same way
     return m
@@ -886,6 +891,8 @@ class Renderer:
             cracks = cv2.GaussianBlur(rng.random((256, 256)).astype(np.float32), (0, 0), 5)
             cracks = (cracks - cracks.mean()) / (cracks.std() + 1e-6)
             self.cracks = (np.abs(cracks) < 0.06).astype(np.float32)  # thin meandering contours
+        if not scenario.speed_mps >= 0:
+            raise LaneFinderError(f"a scenario's speed must be 0 m/s or more, not {scenario.speed_mps}")
         self.hills = any(v != 0 for v in scenario.vertical_curvature)
         self.seed = seed
         self.night = ((NightLight.random(seed) if appearance is not None else NightLight())
@@ -1363,6 +1370,8 @@ class Renderer:
         (H, W, 3) uint8 ndarray
             The frame, BGR.
         """
+        if not t >= 0:  # distances along the road are then never negative: fmod is their remainder
+            raise LaneFinderError(f"a frame's time must be 0 s or more, not {t}")
         g = self.geometry(t)
         c, look = self.sc.conditions, self.look
         X, Z, ground = self.X, self.Z, self.ground
