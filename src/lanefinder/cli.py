@@ -137,13 +137,9 @@ def _not_empty(_ctx: click.Context, param: click.Parameter, value: str | None) -
 
 def _config(path: str | None):
     """Load a config; the camera file it names must exist and describe a lens (checked before any work)."""
-    from .config import load_config
-    from .pipeline import camera_from_config
+    from .pipeline import load_checked_config
 
-    cfg = load_config(path)
-    if path is not None:
-        camera_from_config(cfg)
-    return cfg
+    return load_checked_config(path)
 
 
 def _board(text: str) -> tuple[int, int]:
@@ -203,7 +199,7 @@ def calibrate(photos: tuple[str, ...], board: str, output: str) -> None:
               "output.")
 def config_cmd(default: bool, check: str | None, fmt: str | None, output: str | None) -> None:
     """Print (or check) the configuration that -c takes."""
-    from .config import Config, dump_config, load_config
+    from .config import Config, dump_config
     from .io import atomic_write_text, check_not_input
 
     if not default and not check:
@@ -215,11 +211,7 @@ def config_cmd(default: bool, check: str | None, fmt: str | None, output: str | 
         fmt = wanted
         if check:
             check_not_input(output, [check])
-    cfg = load_config(check) if check else Config()
-    if check:
-        from .pipeline import camera_from_config
-
-        camera_from_config(cfg)  # the camera file it names must exist and describe a lens
+    cfg = _config(check) if check else Config()
     text = dump_config(cfg, fmt or "toml")  # type: ignore[arg-type]
     if output:
         atomic_write_text(output, text)

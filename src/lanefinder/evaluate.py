@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import LaneFinderError
 from .io import json_lines
+from .telemetry import MAX_ABS_VALUE, is_number, is_number_list, read_telemetry
 
 __all__ = [
     "BANDS_M",
@@ -284,24 +285,11 @@ def _read_jsonl(path: Path) -> list[dict]:
 
 
 _ROW_NUMBERS = ("offset_m", "curvature_per_m", "radius_m", "run_time")
-#: No pixel, distance or time in a row is this large: larger numbers are refused (sums and fits of
-#: them would overflow).
-_MAX_ABS = 1e9
-
-
-def _is_number(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= _MAX_ABS  # NaN fails too
-
-
-def _numbers(v: object) -> bool:
-    return isinstance(v, list) and all(_is_number(x) for x in v)
-
-
 def _check_lateral(lateral: object) -> bool:
     """Tell whether a truth row's ``lateral`` is ``{distance: {"x": [...], "y": row, "m_per_px": scale}}``."""
     return isinstance(lateral, dict) and all(
-        isinstance(at, dict) and _numbers(at.get("x")) and _is_number(at.get("y")) and _is_number(at.get("m_per_px"))
-        for at in lateral.values())
+        isinstance(at, dict) and is_number_list(at.get("x")) and is_number(at.get("y"))
+        and is_number(at.get("m_per_px")) for at in lateral.values())
 
 
 def _check_row(row: object, path: Path | str, i: int) -> dict:
@@ -310,22 +298,22 @@ def _check_row(row: object, path: Path | str, i: int) -> dict:
         raise LaneFinderError(f"{path}: row {i} is not a record of named fields")
     lanes = row.get("lanes", [])
     if not isinstance(lanes, list) or not all(
-            isinstance(lane, list) and all(_is_number(v) for v in lane) for lane in lanes):
+            is_number_list(lane) for lane in lanes):
         raise LaneFinderError(f"{path}: row {i}: lanes must be lists of numbers")
     ys = row.get("h_samples", [])
-    if not _numbers(ys):
+    if not is_number_list(ys):
         raise LaneFinderError(f"{path}: row {i}: h_samples must be a list of numbers")
     if any(b < a for a, b in itertools.pairwise(ys)) or (len(ys) > 1 and ys[0] == ys[-1]):
         # (frames under 72 rows repeat some of their 32 rows: telemetry.h_samples)
         raise LaneFinderError(f"{path}: row {i}: h_samples must be rows from top to bottom")
     for k in _ROW_NUMBERS:
-        if row.get(k) is not None and not _is_number(row[k]):
-            raise LaneFinderError(f"{path}: row {i}: {k} is not a number within +-{_MAX_ABS:g} ({row[k]!r})")
+        if row.get(k) is not None and not is_number(row[k]):
+            raise LaneFinderError(f"{path}: row {i}: {k} is not a number within +-{MAX_ABS_VALUE:g} ({row[k]!r})")
     frame = row.get("frame")
-    if "frame" in row and not (_is_number(frame) and float(frame).is_integer() and frame >= 0):  # type: ignore[arg-type]
+    if "frame" in row and not (is_number(frame) and float(frame).is_integer() and frame >= 0):  # type: ignore[arg-type]
         raise LaneFinderError(f"{path}: row {i}: frame must be a whole number, 0 or more ({frame!r})")
     for k in ("left_x", "right_x", "row_distance_m"):
-        if row.get(k) is not None and not _numbers(row[k]):
+        if row.get(k) is not None and not is_number_list(row[k]):
             raise LaneFinderError(f"{path}: row {i}: {k} must be a list of numbers")
     if row.get("lateral") is not None and not _check_lateral(row["lateral"]):
         raise LaneFinderError(f"{path}: row {i}: lateral must map distances to x (numbers), y and m_per_px")
@@ -416,8 +404,6 @@ def read_predictions(path: str | Path) -> dict[str, dict]:
     ...
     lanefinder.errors.LaneFinderError: not found: no/telemetry.jsonl
     """
-    from .telemetry import read_telemetry
-
     p = Path(path)
     rows = read_telemetry(p) if p.suffix.lower() in (".csv", ".parquet") else _read_jsonl(p)
     out = []

@@ -14,13 +14,14 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
 from .autosetup import nominal_setup
 from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
 from .camera import CameraModel, load_camera, udacity_camera
-from .config import BirdseyeConfig, Config, ThresholdConfig
+from .config import BirdseyeConfig, Config, ThresholdConfig, load_config
 from .errors import LaneFinderError
 from .farfield import FarView, follow_line, make_farview
 from .geometry import Scale, lane_geometry, poly_x
@@ -40,6 +41,7 @@ __all__ = [
     "birdseye_config_used",
     "birdseye_from_config",
     "camera_from_config",
+    "load_checked_config",
 ]
 
 
@@ -77,6 +79,38 @@ def camera_from_config(cfg: Config, frame_size: tuple[int, int] | None = None) -
         focal = cfg.camera.focal_px
         return CameraModel.ideal(size, focal_px=None if focal is None else focal * size[0] / ref[0])
     return load_camera(name)
+
+
+def load_checked_config(path: str | Path | None) -> Config:
+    """Load a config file whose camera file (if it names one) must exist and describe a lens.
+
+    Every command that takes ``-c`` checks this before any work, so that a config whose camera
+    file is missing is one error at the start, not a failure of every frame or video.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The config file (``.toml``, ``.yaml`` or ``.json``); None gives the defaults.
+
+    Returns
+    -------
+    Config
+        The configuration.
+
+    Raises
+    ------
+    LaneFinderError
+        When the config or its camera file cannot be read.
+
+    Examples
+    --------
+    >>> load_checked_config(None).camera.model
+    'udacity'
+    """
+    cfg = load_config(path)
+    if path is not None:
+        camera_from_config(cfg)
+    return cfg
 
 
 def birdseye_from_config(cfg: Config, camera: CameraModel, frame_size: tuple[int, int]) -> BirdsEye:

@@ -8,6 +8,7 @@ import numpy as np
 
 from .errors import LaneFinderError
 from .io import atomic_path
+from .telemetry import MAX_ABS_VALUE
 
 __all__ = ["PLOT_FORMATS", "plot_telemetry"]
 
@@ -15,10 +16,6 @@ __all__ = ["PLOT_FORMATS", "plot_telemetry"]
 PLOT_FORMATS = ("png", "pdf", "svg")
 #: The telemetry columns plotted.
 _PLOTTED = ("radius_m", "offset_m", "width_m", "left_conf", "right_conf")
-
-
-#: No value in telemetry is this large (a plot of larger ones fails to scale its axes).
-_MAX_ABS = 1e9
 
 
 def plot_telemetry(rows: list[dict], path: str | Path) -> None:
@@ -68,8 +65,8 @@ def plot_telemetry(rows: list[dict], path: str | Path) -> None:
             v = np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
         except (TypeError, ValueError, OverflowError):
             raise LaneFinderError(f"{key} is not a number in every row of the telemetry") from None
-        if (big := np.flatnonzero(np.abs(v) > _MAX_ABS)).size:  # matplotlib cannot scale an axis to 1e308
-            raise LaneFinderError(f"{key} is beyond +-{_MAX_ABS:g} in row {big[0] + 1} of the telemetry "
+        if (big := np.flatnonzero(np.abs(v) > MAX_ABS_VALUE)).size:  # matplotlib cannot scale an axis to 1e308
+            raise LaneFinderError(f"{key} is beyond +-{MAX_ABS_VALUE:g} in row {big[0] + 1} of the telemetry "
                                   f"({v[big[0]]:g})")
         return v
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 import base64
 import contextlib
 import json
-import math
 import threading
 import time
 from collections import OrderedDict
@@ -28,11 +27,11 @@ import cv2
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from .config import BirdseyeConfig, Config, config_from_dict, dump_config, load_config
+from .config import BirdseyeConfig, Config, config_from_dict, dump_config
 from .errors import LaneFinderError
 from .io import atomic_write_text
 from .stats import lane_shares
-from .telemetry import TELEMETRY_SUFFIXES, read_telemetry
+from .telemetry import MAX_ABS_VALUE, TELEMETRY_SUFFIXES, is_number_list, read_telemetry
 
 __all__ = ["LOCAL_HOSTS", "MAX_BODY_BYTES", "TUNABLE_SECTIONS", "FrameReader", "Review", "VideoSource", "config_form",
            "create_app", "draw_row", "load_review", "serve"]
@@ -215,10 +214,8 @@ class VideoSource:
                 if frame in by_frame:
                     raise LaneFinderError(f"{where}: frame {frame} is given twice")
                 for k in ("left_x", "right_x", "h_samples"):  # what the page draws: a bad one was an HTTP 500
-                    v = r.get(k)
-                    if v is not None and not (isinstance(v, list) and all(
-                            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
-                        raise LaneFinderError(f"{where}: {k} must be a list of numbers")
+                    if r.get(k) is not None and not is_number_list(r[k]):
+                        raise LaneFinderError(f"{where}: {k} must be a list of numbers within +-{MAX_ABS_VALUE:g}")
                 by_frame[frame] = r
             self._rows = sorted(rows, key=lambda r: r["frame"])
             self._by_frame = by_frame
@@ -975,9 +972,7 @@ def load_review(path: str | Path, config_path: str | Path | None = None,
     ...
     lanefinder.errors.LaneFinderError: not found: no/such/folder
     """
-    cfg = load_config(config_path) if config_path else Config()
-    if config_path:
-        from .pipeline import camera_from_config
+    from .pipeline import load_checked_config
 
-        camera_from_config(cfg)  # the camera file it names must exist: else every inspection would fail
+    cfg = load_checked_config(config_path or None)  # a missing camera file: else every inspection would fail
     return Review(path, cfg, config_path, telemetry)

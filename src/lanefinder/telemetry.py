@@ -49,16 +49,66 @@ __all__ = [
     "FIELDS",
     "LINE_FIELDS",
     "LIST_FIELDS",
+    "MAX_ABS_VALUE",
     "TELEMETRY_SUFFIXES",
     "TEXT_FIELDS",
     "BlownOut",
     "TelemetryWriter",
     "h_samples",
+    "is_number",
+    "is_number_list",
     "lane_row",
     "line_x_at_rows",
     "make_row",
     "read_telemetry",
 ]
+
+
+#: No pixel, distance or time in telemetry (or its truth) is this large: readers refuse larger
+#: numbers (sums, fits and plots of them overflow, and a frame cannot be drawn at them).
+MAX_ABS_VALUE = 1e9
+
+
+def is_number(v: object) -> bool:
+    """Tell whether a telemetry value is a number within +-``MAX_ABS_VALUE`` (not a bool, not NaN).
+
+    Parameters
+    ----------
+    v : object
+        The value.
+
+    Returns
+    -------
+    bool
+        True for such a number.
+
+    Examples
+    --------
+    >>> is_number(3), is_number(2.5), is_number(True), is_number(float("nan")), is_number(1e308)
+    (True, True, False, False, False)
+    """
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= MAX_ABS_VALUE  # NaN fails too
+
+
+def is_number_list(v: object) -> bool:
+    """Tell whether a telemetry value is a list of numbers (:func:`is_number`), as ``left_x`` is.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+
+    Returns
+    -------
+    bool
+        True for such a list (an empty one too).
+
+    Examples
+    --------
+    >>> is_number_list([1, 2.5]), is_number_list(["a"]), is_number_list(5)
+    (True, False, False)
+    """
+    return isinstance(v, list) and all(is_number(x) for x in v)
 
 
 def _paired(name: str) -> list[str]:
