@@ -402,6 +402,7 @@ def test_telemetry_written_before_the_checks_column_is_reviewed_without_them(tmp
     assert all(isinstance(r["checks"], str) for r in read_telemetry(tmp_path / "new.csv"))
 
 
+@pytest.mark.slow  # a batch over two clips (the fleet)
 def test_a_video_replaced_after_its_batch_is_flagged(fleet_dir):
     # A bad-input campaign: a source video replaced after the batch was shown with the old
     # telemetry drawn on it, without a word. Now `lanefinder review` warns at start.
