@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -11,6 +12,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+
+from lanefinder.errors import LaneFinderError
 
 from conftest import CAL, CLIPS, TEST_IMAGES
 
@@ -144,12 +147,41 @@ def test_black_frame_is_reported_as_no_lane(tmp_path):
         ("[tracking]\nmin_widht_m = 3\n", "tracking.min_widht_m: unknown key"),
         ("[birdseye]\nxm_per_px = -1\n", "birdseye.xm_per_px"),
         ("[search]\nn_windows = true\n", "search.n_windows: expected a number, not true/false"),
+        ("[search]\nn_windows = \"9\"\n", "search.n_windows: expected a number, not the text '9'"),
     ],
 )
 def test_invalid_config_value_names_the_key(tmp_path, text, key):
     cfg = tmp_path / "bad.toml"
     cfg.write_text(text)
     assert_one_line_error(run("image", str(TEST_IMAGES / "test1.jpg"), "-c", str(cfg), "-o", str(tmp_path)), key)
+
+
+@pytest.mark.parametrize(
+    ("data", "needle"),
+    [
+        ({"search": {"n_windows": "9"}}, "search.n_windows: expected a number, not the text '9'"),
+        ({"fit": {"huber_m": "0.1"}}, "fit.huber_m: expected a number, not the text '0.1'"),
+        ({"selfcal": {"enabled": "off"}}, "selfcal.enabled: expected true or false, not the text 'off'"),
+        ({"render": {"hud": "yes"}}, "render.hud: expected true or false, not the text 'yes'"),
+        ({"selfcal": {"still_height_m": [1.0, "1.8"]}},
+         "selfcal.still_height_m: expected a number, not the text '1.8'"),
+        ({"threshold": {"sobel_hls": {"kernel": "5"}}}, "threshold.sobel_hls.kernel: expected a number"),
+    ],
+)
+def test_config_refuses_text_for_numbers_and_switches(data, needle):
+    # pydantic's lax mode read "9" as 9 and "off" as false: a quoted number or a spelled switch is refused
+    from lanefinder.config import config_from_dict
+
+    with pytest.raises(LaneFinderError, match=re.escape(needle)):
+        config_from_dict(data, "x.toml")
+
+
+def test_config_still_takes_its_words():
+    from lanefinder.config import config_from_dict
+
+    cfg = config_from_dict({"threshold": {"strategy": "color", "sobel_hls": {"kernel": 5}}, "camera": {"model": "none"},
+                            "video": {"preset": "fast"}, "selfcal": {"still_height_m": [1, 2]}}, "x.toml")
+    assert (cfg.threshold.strategy, cfg.threshold.sobel_hls.kernel, cfg.camera.model) == ("color", 5, "none")
 
 
 def test_config_that_is_not_toml(tmp_path):

@@ -271,6 +271,11 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
     page.wait_for_function(f"Number(document.getElementById('status').dataset.seq) > {seq}")
     assert page.locator("#stage-2_binary").get_attribute("src") != before
     ms = float(page.locator("#status").get_attribute("data-ms"))
+    # A choice of numbers goes back as a number (the page once sent the text "7", which is refused).
+    seq = int(page.locator("#status").get_attribute("data-seq"))
+    page.select_option("select[name='threshold.sobel_hls.kernel']", "7")
+    page.wait_for_function(f"Number(document.getElementById('status').dataset.seq) > {seq}")
+    assert not failed
     # Drag the top-left corner of the trapezoid 40 px to the left.
     seq = int(page.locator("#status").get_attribute("data-seq"))
     page.locator("#corner-0").scroll_into_view_if_needed()
@@ -292,6 +297,7 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
     try:
         cfg = load_config(saved)
         assert cfg.threshold.ridge.min_contrast == 60 and abs(cfg.birdseye.src[0][0] - cx) < 0.2
+        assert cfg.threshold.sobel_hls.kernel == 7
         out = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(HARDER), "-c", str(saved),
                               "--telemetry", str(tmp_path / "t.csv"), "--end", "1", "--quiet"],
                              capture_output=True, text=True, timeout=120)

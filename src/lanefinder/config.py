@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import json
 import math
+import types
 from pathlib import Path
-from typing import Annotated, Any, Literal, get_args
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (
     AfterValidator,
@@ -145,17 +146,54 @@ def default_dst(size: tuple[int, int] = VIEW_SIZE_PX,
     return ((x0, 0.0), (w, 0.0), (w, h), (x0, h))
 
 
+def _text_in(value: object) -> str | None:
+    """Give the first piece of text in a value (itself, or in a list of lists), or None."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            text = _text_in(item)
+            if text is not None:
+                return text
+    return None
+
+
+def _takes_text(annotation: object) -> bool:
+    """Tell whether a field's type takes text: ``str``, a ``Literal`` of words, a union holding one."""
+    if annotation is str:
+        return True
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _takes_text(args[0])
+    if origin is Literal:
+        return any(isinstance(a, str) for a in args)
+    if origin in (Union, types.UnionType):
+        return any(_takes_text(a) for a in args)
+    return False
+
+
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     @field_validator("*", mode="before")
     @classmethod
     def _no_true_false_for_numbers(cls, v: object, info: ValidationInfo) -> object:
-        """Refuse true/false for a number (pydantic would read ``n_windows = true`` as 1)."""
-        if isinstance(v, bool) and info.field_name is not None:
-            annotation = cls.model_fields[info.field_name].annotation
-            if annotation is not bool and bool not in get_args(annotation):
-                raise ValueError("expected a number, not true/false")
+        """Refuse true/false for a number and text for a number or a switch.
+
+        pydantic would read ``n_windows = true`` as 1, ``n_windows = "9"`` as 9 and
+        ``enabled = "off"`` as false: a file that quotes a number, or spells a switch, says
+        something else than it seems to, so it is refused with the key named.
+        """
+        if info.field_name is None:
+            return v
+        annotation = cls.model_fields[info.field_name].annotation
+        if isinstance(v, bool) and annotation is not bool and bool not in get_args(annotation):
+            raise ValueError("expected a number, not true/false")
+        text = _text_in(v)
+        if text is not None and not _takes_text(annotation):
+            if annotation is bool:
+                raise ValueError(f"expected true or false, not the text {text!r}")
+            raise ValueError(f"expected a number, not the text {text!r} (leave out the quotes)")
         return v
 
 
