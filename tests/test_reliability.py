@@ -674,6 +674,16 @@ def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):
         read_telemetry(tmp_path / "t.csv")
 
 
+@pytest.mark.parametrize("text", ['{"frame": 0, "left_x": [1, 2], "right_x": [3, 4]}\n', '\ufeff[{"frame": 0}]\n'])
+def test_json_named_csv_is_called_json(tmp_path, text):
+    # (its first record was read as a CSV header: "holds no predictions", or an empty plot)
+    from lanefinder.evaluate import read_predictions
+
+    (tmp_path / "p.csv").write_text(text)
+    with pytest.raises(LaneFinderError, match=r"p.csv: holds JSON, not CSV: name it .jsonl"):
+        read_predictions(tmp_path / "p.csv")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("after_s", [0.05, 0.15, 0.3, 0.6])
 def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):

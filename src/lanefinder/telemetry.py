@@ -683,6 +683,8 @@ def _read_text_rows(p: Path) -> list:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
+            if text.lstrip("\ufeff \t\r\n")[:1] in ("{", "["):  # its "header" would be the first record
+                raise LaneFinderError(f"{p}: holds JSON, not CSV: name it .jsonl")
             raw = list(csv.DictReader(io.StringIO(text)))
             for i, row in enumerate(raw, 1):
                 if None in row.values():  # (an empty value is "", a missing one None)
