@@ -659,8 +659,10 @@ def test_a_line_cut_short_is_named_by_its_line_number(tmp_path):
     path.write_text('{"frame": 0, "state": "lost"}\n{"frame": 1, "state": "lo')
     with pytest.raises(LaneFinderError, match=r"line 2, cut short"):
         read_telemetry(path)
-    with pytest.raises(LaneFinderError, match=r"not JSON Lines \(line 2"):
-        read_ground_truth(path)
+    # (truth is checked as it is read: a first row that is truth, then the cut one)
+    path.with_name("gt.jsonl").write_text('{"frame": 0, "h_samples": [700], "lanes": [[1]]}\n{"frame": 1, "h_sa')
+    with pytest.raises(LaneFinderError, match=r"not JSON Lines \(line 2, cut short"):
+        read_ground_truth(path.with_name("gt.jsonl"))
     from lanefinder.events import read_events
 
     with pytest.raises(LaneFinderError, match=r"line 2, cut short"):

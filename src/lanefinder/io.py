@@ -30,6 +30,7 @@ __all__ = [
     "encode_image",
     "image_size",
     "input_file",
+    "iter_json_lines",
     "json_lines",
     "list_images",
     "partial_name",
@@ -212,6 +213,56 @@ def json_lines(text: str, path: str | Path) -> list:
             short = ", cut short?" if n == len(lines) and not text.rstrip(" \t").endswith("\n") else ""
             raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
     return out
+
+
+def iter_json_lines(path: str | Path) -> Iterator[object]:
+    r"""Read a JSON Lines file one line at a time, saying which line is not JSON (as :func:`json_lines`).
+
+    The file is never held whole: a truth file of a hundred thousand frames is read in the
+    memory of one line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Yields
+    ------
+    object
+        Each non-blank line's value, in order.
+
+    Raises
+    ------
+    LaneFinderError
+        At the first line that is not JSON (its line number, and why), or that is not UTF-8.
+    OSError
+        When the file cannot be read.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = Path(d) / "x.jsonl"
+    ...     _ = p.write_text('{"a": 1}\n\n[2]\n')
+    ...     list(iter_json_lines(p))
+    [{'a': 1}, [2]]
+    """
+    with open(path, "rb") as f:  # lines end at \n only (JSON strings may hold U+2028)
+        for n, raw in enumerate(f, 1):
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError as e:
+                raise LaneFinderError(f"{path}: not JSON Lines (line {n}: not UTF-8 text: {e.reason})") from None
+            if n == 1:
+                line = line.removeprefix("\ufeff")
+            if not line.strip():
+                continue
+            try:
+                yield json.loads(line)
+            except json.JSONDecodeError as e:
+                # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
+                short = ", cut short?" if not line.rstrip(" \t").endswith("\n") else ""
+                raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
 
 
 def check_distinct(paths: Iterable[Path], what: str = "photo") -> None:
