@@ -176,6 +176,25 @@ def test_config_refuses_text_for_numbers_and_switches(data, needle):
         config_from_dict(data, "x.toml")
 
 
+def test_yaml_numbers_with_an_exponent_are_numbers(tmp_path):
+    # YAML 1.1 (PyYAML) reads 1e4 and 5e-2 as text, which the config now refuses for a number
+    from lanefinder.config import load_config
+
+    (tmp_path / "c.yaml").write_text("fit:\n  max_radius_m: 1e4\n  huber_m: 5e-2\nsearch:\n  n_windows: 9\n")
+    cfg = load_config(tmp_path / "c.yaml")
+    assert (cfg.fit.max_radius_m, cfg.fit.huber_m, cfg.search.n_windows) == (10000.0, 0.05, 9)
+    (tmp_path / "q.yaml").write_text("fit:\n  max_radius_m: '1e4'\n")  # quoted: text
+    with pytest.raises(LaneFinderError, match=re.escape("fit.max_radius_m: expected a number, not the text '1e4'")):
+        load_config(tmp_path / "q.yaml")
+
+
+def test_text_for_a_section_says_it_must_be_a_table():
+    from lanefinder.config import config_from_dict
+
+    with pytest.raises(LaneFinderError, match="search: Input should be a valid dictionary"):
+        config_from_dict({"search": "x"}, "x.toml")
+
+
 def test_config_still_takes_its_words():
     from lanefinder.config import config_from_dict
 

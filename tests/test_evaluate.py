@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -197,7 +198,7 @@ def test_the_rows_of_a_frame_under_72_rows_may_repeat(tmp_path):
 
 def test_truth_is_read_a_line_at_a_time_into_shared_arrays(tmp_path):
     # 100,000 TuSimple frames (146 MB) took 2.3 GB and 94 s as lists of Python numbers; as arrays,
-    # read a line at a time with the rows shared, 0.6 GB and 32 s, and the same figures
+    # read a line at a time with the rows shared, 0.6 GB and 60 s, and the same figures
     rows = [{"raw_file": f"clips/{i}.jpg", "h_samples": Y, "lanes": [[300 + i] * len(Y), [-2] * len(Y)]}
             for i in range(3)]
     (tmp_path / "gt.json").write_text("".join(json.dumps(r) + "\n" for r in rows))
@@ -212,4 +213,37 @@ def test_truth_is_read_a_line_at_a_time_into_shared_arrays(tmp_path):
 def test_a_line_that_is_not_utf8_is_named(tmp_path):
     (tmp_path / "gt.jsonl").write_bytes(b'{"frame": 0, "h_samples": [700], "lanes": [[1]]}\n\xff\xfe\n')
     with pytest.raises(LaneFinderError, match=r"gt.jsonl: not JSON Lines \(line 2: not UTF-8 text"):
+        read_ground_truth(tmp_path / "gt.jsonl")
+
+
+@pytest.mark.parametrize(("pred", "gt", "ys", "expected"), [
+    # 2.4 px a row: the threshold is 52 px, which np.polyfit gives as 52.00000000000002 (a closed-form
+    # slope gave 51.99999999999999 and missed this prediction, 52 px off)
+    ([[152, 272]], [[100, 220]], [160, 210], (1.0, 0.0, 0.0)),
+    # the truth's points on one repeated row: polyfit still gives a slope (the closed form gave 0)
+    ([[120, 130, -2]], [[100, 110, -2]], [700, 700, 710], (1.0, 0.0, 0.0)),
+])
+def test_the_threshold_is_the_benchmarks_to_the_last_bit(pred, gt, ys, expected):
+    assert bench_frame(pred, gt, ys) == expected
+
+
+def test_a_truth_lane_of_another_length_is_refused():
+    with pytest.raises(LaneFinderError, match="every truth lane needs one x per h_sample"):
+        bench_frame([[1, 2, 3]], [[5]], [1, 2, 3])
+
+
+def test_lines_ending_in_cr_alone_are_read(tmp_path):
+    row = {"frame": 0, "h_samples": Y, "lanes": [[300.0] * len(Y)]}
+    (tmp_path / "gt.jsonl").write_bytes((json.dumps(row) + "\r" + json.dumps({**row, "frame": 1}) + "\r").encode())
+    assert sorted(read_ground_truth(tmp_path / "gt.jsonl")) == ["frame/000000", "frame/000001"]
+
+
+@pytest.mark.parametrize(("text", "needle"), [
+    ('{"frame": ' + "9" * 5000 + "}\n", "line 1: a number of more digits than can be read"),
+    ("[" * 100_000 + "]" * 100_000 + "\n", "line 1: nested too deeply"),
+])
+def test_json_that_python_cannot_hold_is_named(tmp_path, text, needle):
+    # (both were an internal error: ValueError, RecursionError)
+    (tmp_path / "gt.jsonl").write_text(text)
+    with pytest.raises(LaneFinderError, match=re.escape(needle)):
         read_ground_truth(tmp_path / "gt.jsonl")

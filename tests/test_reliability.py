@@ -676,6 +676,12 @@ def test_a_csv_row_with_fewer_values_than_its_header_is_refused(tmp_path):
         read_telemetry(tmp_path / "t.csv")
 
 
+def test_a_telemetry_csv_with_a_byte_order_mark_is_read(tmp_path):
+    # (its first column was named "\ufeffframe": "each row needs raw_file (TuSimple) or frame")
+    (tmp_path / "t.csv").write_text("\ufeffframe,time_s,state,offset_m\n0,0.0,lost,\n", encoding="utf-8")
+    assert read_telemetry(tmp_path / "t.csv")[0]["frame"] == 0
+
+
 @pytest.mark.parametrize("text", ['{"frame": 0, "left_x": [1, 2], "right_x": [3, 4]}\n', '\ufeff[{"frame": 0}]\n'])
 def test_json_named_csv_is_called_json(tmp_path, text):
     # (its first record was read as a CSV header: "holds no predictions", or an empty plot)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import types
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
@@ -187,6 +188,8 @@ class _Section(BaseModel):
         if info.field_name is None:
             return v
         annotation = cls.model_fields[info.field_name].annotation
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            return v  # a section: pydantic says it must be a table
         if isinstance(v, bool) and annotation is not bool and bool not in get_args(annotation):
             raise ValueError("expected a number, not true/false")
         text = _text_in(v)
@@ -1321,12 +1324,22 @@ def _without_repeats(pairs: list[tuple[str, Any]]) -> dict:
     return out
 
 
+#: A float with an exponent as YAML 1.2 writes it (``1e4``, ``5e-1``, ``6.02e23``, ``.5e3``).
+_YAML_EXP_FLOAT = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$")
+
+
 def _yaml_without_repeats(text: str) -> Any:
     """Parse YAML safely, refusing a key given twice in a mapping."""
     import yaml
 
     class _Loader(yaml.SafeLoader):
         pass
+
+    # YAML 1.1 (PyYAML) reads 1e4, 5e-1 and 6.02e23 as text: its floats need a dot and a signed
+    # exponent.  They are numbers in YAML 1.2 and in TOML and JSON, and the config refuses text
+    # for a number, so they are read as numbers here (on this loader's own copy of the table).
+    _Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML_EXP_FLOAT, list("-+0123456789."))
 
     def mapping(loader: yaml.SafeLoader, node: yaml.MappingNode) -> dict:
         # The keys written in this mapping must differ; a merge (<<) may still be overridden by one.

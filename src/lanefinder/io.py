@@ -206,12 +206,8 @@ def json_lines(text: str, path: str | Path) -> list:
     for n, line in enumerate(lines, 1):
         if not line.strip():
             continue
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError as e:
-            # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
-            short = ", cut short?" if n == len(lines) and not text.rstrip(" \t").endswith("\n") else ""
-            raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
+        # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
+        out.append(_json_line(line, path, n, cut=n == len(lines) and not text.rstrip(" \t").endswith("\n")))
     return out
 
 
@@ -219,7 +215,7 @@ def iter_json_lines(path: str | Path) -> Iterator[object]:
     r"""Read a JSON Lines file one line at a time, saying which line is not JSON (as :func:`json_lines`).
 
     The file is never held whole: a truth file of a hundred thousand frames is read in the
-    memory of one line.
+    memory of one line.  Lines end at ``\n``, ``\r\n`` or ``\r`` (as text files are read).
 
     Parameters
     ----------
@@ -247,22 +243,36 @@ def iter_json_lines(path: str | Path) -> Iterator[object]:
     ...     list(iter_json_lines(p))
     [{'a': 1}, [2]]
     """
-    with open(path, "rb") as f:  # lines end at \n only (JSON strings may hold U+2028)
-        for n, raw in enumerate(f, 1):
+    n = 0
+    with open(path, "rb") as f:  # (not text mode: a decoding error is then named by its line)
+        for raw in f:
             try:
-                line = raw.decode("utf-8")
+                text = raw.decode("utf-8")
             except UnicodeDecodeError as e:
-                raise LaneFinderError(f"{path}: not JSON Lines (line {n}: not UTF-8 text: {e.reason})") from None
-            if n == 1:
-                line = line.removeprefix("\ufeff")
-            if not line.strip():
-                continue
-            try:
-                yield json.loads(line)
-            except json.JSONDecodeError as e:
-                # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
-                short = ", cut short?" if not line.rstrip(" \t").endswith("\n") else ""
-                raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
+                raise LaneFinderError(f"{path}: not JSON Lines (line {n + 1}: not UTF-8 text: {e.reason})") from None
+            if n == 0:
+                text = text.removeprefix("\ufeff")
+            # (\r\n stays within one raw line; a lone \r ends a line, as in a text file)
+            pieces = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+            ended = len(pieces) - 1  # the pieces a line end follows; the last one is what the line end leaves
+            for i, line in enumerate(pieces if pieces[-1] else pieces[:-1]):
+                n += 1
+                if line.strip():
+                    # The last line of a file that does not end a line was likely cut short.
+                    yield _json_line(line, path, n, cut=i >= ended)
+
+
+def _json_line(line: str, path: str | Path, n: int, cut: bool) -> object:
+    """Parse one line of a JSON Lines file, naming the line (and whether it looks cut short) when it is not JSON."""
+    try:
+        return json.loads(line)
+    except json.JSONDecodeError as e:
+        short = ", cut short?" if cut else ""
+        raise LaneFinderError(f"{path}: not JSON Lines (line {n}{short}: {e.msg}, column {e.colno})") from None
+    except ValueError:  # an integer of more digits than Python reads (4300)
+        raise LaneFinderError(f"{path}: not JSON Lines (line {n}: a number of more digits than can be read)") from None
+    except RecursionError:
+        raise LaneFinderError(f"{path}: not JSON Lines (line {n}: nested too deeply)") from None
 
 
 def check_distinct(paths: Iterable[Path], what: str = "photo") -> None:

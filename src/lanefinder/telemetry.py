@@ -688,6 +688,17 @@ def _read_parquet(p: Path) -> list:
     return read_parquet_rows(p)
 
 
+def _json_first_line(text: str) -> bool:
+    """Tell whether a text's first non-blank line is a JSON record or list (a JSON Lines file)."""
+    first = text.lstrip().split("\n", 1)[0].strip()
+    if first[:1] not in ("{", "["):
+        return False
+    try:
+        return isinstance(json.loads(first), (dict, list))
+    except (ValueError, RecursionError):
+        return False
+
+
 def _read_text_rows(p: Path) -> list:
     try:
         text = p.read_text()
@@ -695,7 +706,8 @@ def _read_text_rows(p: Path) -> list:
         raise LaneFinderError(f"{p}: not a lanefinder telemetry file ({e})") from None
     try:
         if p.suffix.lower() == ".csv":
-            if text.lstrip("\ufeff \t\r\n")[:1] in ("{", "["):  # its "header" would be the first record
+            text = text.removeprefix("\ufeff")  # (a BOM would be part of the first column's name)
+            if _json_first_line(text):  # its "header" would be the first record
                 raise LaneFinderError(f"{p}: holds JSON, not CSV: name it .jsonl")
             raw = list(csv.DictReader(io.StringIO(text)))
             for i, row in enumerate(raw, 1):

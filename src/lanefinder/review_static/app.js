@@ -227,7 +227,7 @@ function buildForm() {
       const t = input.dataset.type;
       // a choice goes back as the choice itself (a kernel size is a number, not its text)
       state.changes[f.key] = t === "boolean" ? input.checked
-        : t === "choice" ? f.choices.find((c) => String(c) === input.value) : Number(input.value);
+        : t === "choice" ? (f.choices.find((c) => String(c) === input.value) ?? input.value) : Number(input.value);
       inspect();
     });
     label.appendChild(name);
