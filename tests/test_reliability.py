@@ -710,6 +710,30 @@ def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):
     assert not list(tmp_path.glob(".*"))
 
 
+def test_ctrl_c_wrapped_while_a_class_loads_is_one_line(monkeypatch, capsys):
+    # (`make test` once caught a Ctrl-C at 0.05 s inside ipaddress's class body: Python wraps it as
+    # "RuntimeError: Error calling __set_name__", caused by the KeyboardInterrupt, and it printed a traceback)
+    import builtins
+
+    from lanefinder import _entry
+
+    real_import = builtins.__import__
+
+    def loading(name, globals=None, locals=None, fromlist=(), level=0):
+        if name == "cli" and level == 1:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as k:
+                raise RuntimeError("Error calling __set_name__ on 'cached_property' instance") from k
+        return real_import(name, globals, locals, fromlist, level)
+
+    monkeypatch.setattr(builtins, "__import__", loading)
+    with pytest.raises(SystemExit) as exit_:
+        _entry.main()
+    assert exit_.value.code == 130 and capsys.readouterr().err == "lanefinder: error: interrupted\n"
+    assert not _entry._caused_by_ctrl_c(RuntimeError("another"))
+
+
 # -- found by a second bad-input campaign (2026-11-27): the library's functions called with what they do not take
 
 

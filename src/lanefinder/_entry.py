@@ -25,6 +25,28 @@ def main() -> None:
     try:
         from .cli import main as run
     except KeyboardInterrupt:
-        sys.stderr.write("lanefinder: error: interrupted\n")
-        raise SystemExit(130) from None
+        _interrupted()
+    except Exception as e:
+        # A Ctrl-C while a class is made (the standard library's, as it loads) comes wrapped:
+        # "RuntimeError: Error calling __set_name__ ...", caused by the KeyboardInterrupt.
+        if not _caused_by_ctrl_c(e):
+            raise
+        _interrupted()
     run()
+
+
+def _interrupted() -> None:
+    sys.stderr.write("lanefinder: error: interrupted\n")
+    raise SystemExit(130) from None
+
+
+def _caused_by_ctrl_c(e: BaseException) -> bool:
+    """Tell whether an exception was caused by a KeyboardInterrupt (somewhere down its chain)."""
+    seen = set()
+    cause: BaseException | None = e
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
