@@ -7,6 +7,7 @@ errors that name the key.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -159,6 +160,17 @@ def _text_in(value: object) -> str | None:
     return None
 
 
+@functools.cache
+def _field_kind(cls: type, name: str) -> str:
+    """Give what a section's field takes: ``section``, ``bool``, ``text`` (words) or ``number``."""
+    annotation = cls.model_fields[name].annotation  # type: ignore[attr-defined]
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "section"
+    if annotation is bool or bool in get_args(annotation):
+        return "bool"
+    return "text" if _takes_text(annotation) else "number"
+
+
 def _takes_text(annotation: object) -> bool:
     """Tell whether a field's type takes text: ``str``, a ``Literal`` of words, a union holding one."""
     if annotation is str:
@@ -185,16 +197,16 @@ class _Section(BaseModel):
         ``enabled = "off"`` as false: a file that quotes a number, or spells a switch, says
         something else than it seems to, so it is refused with the key named.
         """
-        if info.field_name is None:
-            return v
-        annotation = cls.model_fields[info.field_name].annotation
-        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-            return v  # a section: pydantic says it must be a table
-        if isinstance(v, bool) and annotation is not bool and bool not in get_args(annotation):
+        if info.field_name is None or not isinstance(v, (bool, str, list, tuple)):
+            return v  # (a number or a table: the common case, at once)
+        kind = _field_kind(cls, info.field_name)
+        if kind == "section":
+            return v  # pydantic says it must be a table
+        if isinstance(v, bool) and kind not in ("bool", "text"):
             raise ValueError("expected a number, not true/false")
         text = _text_in(v)
-        if text is not None and not _takes_text(annotation):
-            if annotation is bool:
+        if text is not None and kind != "text":
+            if kind == "bool":
                 raise ValueError(f"expected true or false, not the text {text!r}")
             raise ValueError(f"expected a number, not the text {text!r} (leave out the quotes)")
         return v
