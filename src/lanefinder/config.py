@@ -190,7 +190,7 @@ class _Section(BaseModel):
 
     @field_validator("*", mode="before")
     @classmethod
-    def _no_true_false_for_numbers(cls, v: object, info: ValidationInfo) -> object:
+    def _numbers_not_words(cls, v: object, info: ValidationInfo) -> object:
         """Refuse true/false for a number and text for a number or a switch.
 
         pydantic would read ``n_windows = true`` as 1, ``n_windows = "9"`` as 9 and
