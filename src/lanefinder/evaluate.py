@@ -319,7 +319,7 @@ _KEPT = ("raw_file", "frame", "offset_m", "curvature_per_m", "radius_m", "run_ti
 _SHARED_MAX = 1024
 
 
-def _compact(row: dict, lanes: list, shared: dict[tuple, np.ndarray]) -> dict:
+def _compact(row: dict, lanes: list, shared: dict[tuple, np.ndarray], truth: bool) -> dict:
     """Keep what :func:`evaluate` reads of a checked row, its lists of numbers as arrays.
 
     A list of 56 Python numbers takes about 2 kB, as an array 0.5 kB; rows, h_samples and row
@@ -337,7 +337,7 @@ def _compact(row: dict, lanes: list, shared: dict[tuple, np.ndarray]) -> dict:
             elif len(shared) < _SHARED_MAX:  # (rows that never repeat are not all remembered)
                 shared[key] = values
             out[k] = values
-    for k in ("left_x", "right_x"):  # (the truth's: whether the line has paint in view)
+    for k in ("left_x", "right_x") if truth else ():  # (the truth's: whether the line has paint in view)
         if row.get(k) is not None:
             out[k] = np.asarray(row[k], np.float64)
     return out
@@ -442,7 +442,7 @@ def _truth_rows(path: Path) -> Iterator[dict]:
             raise LaneFinderError(f"{path}: ground truth rows need lanes and h_samples")
         if any(len(lane) != len(r["h_samples"]) for lane in r["lanes"]):
             raise LaneFinderError(f"{path}: row {i}: every lane needs one x per h_sample")
-        yield _compact(r, r["lanes"], shared)
+        yield _compact(r, r["lanes"], shared, truth=True)
 
 
 def read_predictions(path: str | Path) -> dict[str, dict]:
@@ -491,7 +491,7 @@ def _prediction_rows(rows: Iterable[object], p: Path) -> Iterator[dict]:
                 raise LaneFinderError(f"{p}: row {i} has no lanes (TuSimple) and no {' or '.join(missing)} "
                                       "(lanefinder telemetry has left_x and right_x)")
             lanes = [lane for lane in (r.get("left_x"), r.get("right_x")) if lane and any(v >= 0 for v in lane)]
-        yield _compact({k: v for k, v in r.items() if k not in ("left_x", "right_x")}, lanes, shared)
+        yield _compact(r, lanes, shared, truth=False)
 
 
 def evaluate(gt: dict[str, dict], pred: dict[str, dict]) -> EvalReport:

@@ -199,16 +199,7 @@ def json_lines(text: str, path: str | Path) -> list:
     ...
     lanefinder.errors.LaneFinderError: x.jsonl: not JSON Lines (line 2, cut short?: Expecting value, column 7)
     """
-    out = []
-    lines = text.removeprefix("\ufeff").split("\n")  # (not splitlines: JSON strings may hold U+2028)
-    while lines and not lines[-1].strip():
-        lines.pop()
-    for n, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
-        out.append(_json_line(line, path, n, cut=n == len(lines) and not text.rstrip(" \t").endswith("\n")))
-    return out
+    return list(_json_values([text], path))
 
 
 def iter_json_lines(path: str | Path) -> Iterator[object]:
@@ -243,23 +234,32 @@ def iter_json_lines(path: str | Path) -> Iterator[object]:
     ...     list(iter_json_lines(p))
     [{'a': 1}, [2]]
     """
-    n = 0
     with open(path, "rb") as f:  # (not text mode: a decoding error is then named by its line)
-        for raw in f:
+        yield from _json_values(f, path)
+
+
+def _json_values(chunks: Iterable[str | bytes], path: str | Path) -> Iterator[object]:
+    r"""Give the values of JSON Lines text given in chunks (a file's raw lines, or the whole text).
+
+    Lines end at ``\n``, ``\r\n`` or ``\r`` (not at U+2028, which JSON strings may hold); a chunk
+    must not split a ``\r\n``.  Bytes are read as UTF-8; a byte-order mark opens the text.
+    """
+    n = 0
+    for chunk in chunks:
+        if isinstance(chunk, bytes):
             try:
-                text = raw.decode("utf-8")
+                chunk = chunk.decode("utf-8")
             except UnicodeDecodeError as e:
                 raise LaneFinderError(f"{path}: not JSON Lines (line {n + 1}: not UTF-8 text: {e.reason})") from None
-            if n == 0:
-                text = text.removeprefix("\ufeff")
-            # (\r\n stays within one raw line; a lone \r ends a line, as in a text file)
-            pieces = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-            ended = len(pieces) - 1  # the pieces a line end follows; the last one is what the line end leaves
-            for i, line in enumerate(pieces if pieces[-1] else pieces[:-1]):
-                n += 1
-                if line.strip():
-                    # The last line of a file that does not end a line was likely cut short.
-                    yield _json_line(line, path, n, cut=i >= ended)
+        if n == 0:
+            chunk = chunk.removeprefix("\ufeff")
+        pieces = chunk.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+        ended = len(pieces) - 1  # the pieces a line end follows; the last one is what the last line end leaves
+        for i, line in enumerate(pieces if pieces[-1] else pieces[:-1]):
+            n += 1
+            if line.strip():
+                # The last line of a file that does not end a line was likely cut short (a copy or run stopped).
+                yield _json_line(line, path, n, cut=i >= ended)
 
 
 def _json_line(line: str, path: str | Path, n: int, cut: bool) -> object:
