@@ -58,9 +58,9 @@ SLOW_DOCTESTS = {"lanefinder.batch.run_batch"}
 #: Test files, slowest first (measured with `--durations=0`): `make test` hands whole files to its
 #: two processes in this order (`--no-loadscope-reorder`), so that the last ones to run are short
 #: and both processes finish together.  Files not listed follow, in their own order.
-SLOWEST_FILES = ("test_reliability.py", "test_batch.py", "test_generalise.py", "test_cli.py", "test_selfcal.py",
-                 "test_synth_accuracy.py", "test_full_videos.py", "test_review.py", "test_video.py",
-                 "test_events.py", "test_scripts.py", "test_synth.py", "test_camera.py", "test_autosetup.py")
+SLOWEST_FILES = ("test_batch.py", "test_generalise.py", "test_reliability.py", "test_full_videos.py",
+                 "test_selfcal.py", "test_synth_accuracy.py", "test_review.py", "test_video.py", "test_cli.py",
+                 "test_scripts.py", "test_synth.py", "test_events.py", "test_autosetup.py", "test_camera.py")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

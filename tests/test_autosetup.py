@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import cv2
 import numpy as np
 import pytest
@@ -18,6 +15,7 @@ from lanefinder.pipeline import LaneFinder
 from lanefinder.synth import Mount, Renderer, Scenario
 from lanefinder.threshold import threshold
 
+from clirun import run_lanefinder
 from conftest import CAL, TEST_IMAGES, shared_video
 
 
@@ -125,10 +123,9 @@ def test_other_frame_sizes_work_with_the_defaults(size, test_images):
 @pytest.mark.slow
 def test_setup_command(tmp_path):
     out = tmp_path / "cam.toml"
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "setup",
-                        "--straight", str(TEST_IMAGES / "straight_lines1.jpg"),
-                        "--straight", str(TEST_IMAGES / "straight_lines2.jpg"), "-o", str(out)],
-                       capture_output=True, text=True)
+    p = run_lanefinder("setup",
+                       "--straight", str(TEST_IMAGES / "straight_lines1.jpg"),
+                       "--straight", str(TEST_IMAGES / "straight_lines2.jpg"), "-o", str(out))
     assert p.returncode == 0, p.stderr
     assert "no distortion model" in p.stdout and "vanishing point" in p.stdout
     assert out.is_file() and (tmp_path / "cam_preview.png").is_file()
@@ -136,11 +133,11 @@ def test_setup_command(tmp_path):
     import re
 
     assert set(re.findall(r"^\[([^].]+)", out.read_text(), re.M)) == {"camera", "birdseye"}
-    check = subprocess.run([sys.executable, "-m", "lanefinder", "image", str(TEST_IMAGES / "test3.jpg"), "-c", str(out),
-                            "-o", str(tmp_path / "o")], capture_output=True, text=True)
+    check = run_lanefinder("image", str(TEST_IMAGES / "test3.jpg"), "-c", str(out),
+                           "-o", str(tmp_path / "o"))
     assert check.returncode == 0 and "yes   yes" in check.stdout
-    bad = subprocess.run([sys.executable, "-m", "lanefinder", "setup", "--straight", str(TEST_IMAGES / "test2.jpg"),
-                          "-o", str(tmp_path / "bad.toml")], capture_output=True, text=True)
+    bad = run_lanefinder("setup", "--straight", str(TEST_IMAGES / "test2.jpg"),
+                         "-o", str(tmp_path / "bad.toml"))
     assert bad.returncode == 2 and "Traceback" not in bad.stderr and not (tmp_path / "bad.toml").exists()
 
 

@@ -23,6 +23,7 @@ from lanefinder.batch import find_inputs, plan_segments, run_batch
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
+from clirun import run_lanefinder
 from conftest import CLIPS, remux
 
 pytestmark = pytest.mark.slow
@@ -236,13 +237,11 @@ def test_ctrl_c_stops_a_batch_in_one_line(tmp_path):
 
 
 def test_bad_batch_inputs_are_one_line(tmp_path):
-    out = subprocess.run([*CLI, "batch", str(tmp_path / "missing"), "-o", str(tmp_path / "o")],
-                         capture_output=True, text=True, timeout=60)
+    out = run_lanefinder("batch", str(tmp_path / "missing"), "-o", str(tmp_path / "o"), timeout=60)
     assert out.returncode == 2 and out.stderr.strip().splitlines() == [
         f"lanefinder: error: input not found: {tmp_path / 'missing'}"]
     (tmp_path / "file").write_text("x")
-    out = subprocess.run([*CLI, "batch", str(HARDER), "-o", str(tmp_path / "file")],
-                         capture_output=True, text=True, timeout=60)
+    out = run_lanefinder("batch", str(HARDER), "-o", str(tmp_path / "file"), timeout=60)
     assert out.returncode == 2 and "the output folder is a file" in out.stderr
 
 

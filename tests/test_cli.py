@@ -15,17 +15,18 @@ import pytest
 
 from lanefinder.errors import LaneFinderError
 
+from clirun import run_lanefinder
 from conftest import CAL, CLIPS, TEST_IMAGES
 
 CLIP = CLIPS / "project_37-47s.mp4"
 
-# Every test here runs the command in a subprocess (0.2-2 s each).
+# Every test here runs the command in a process of its own: forked from one that has imported
+# lanefinder (tests/clirun.py), save the first, which starts `python -m lanefinder` itself.
 pytestmark = pytest.mark.slow
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "lanefinder", *args], capture_output=True, text=True, cwd=cwd,
-                          timeout=300)
+    return run_lanefinder(*args, cwd=cwd, timeout=300)
 
 
 def assert_one_line_error(p: subprocess.CompletedProcess, *needles: str) -> None:
@@ -38,8 +39,10 @@ def assert_one_line_error(p: subprocess.CompletedProcess, *needles: str) -> None
 
 
 def test_image_command_writes_annotated_images_and_results(tmp_path):
-    p = run("image", str(TEST_IMAGES / "test3.jpg"), str(TEST_IMAGES / "straight_lines1.jpg"),
-            "-o", str(tmp_path / "out"), "--stages", str(tmp_path / "stages"))
+    # `python -m lanefinder` itself, in a fresh interpreter (the other tests fork one: tests/clirun.py)
+    p = subprocess.run([sys.executable, "-m", "lanefinder", "image", str(TEST_IMAGES / "test3.jpg"),
+                        str(TEST_IMAGES / "straight_lines1.jpg"), "-o", str(tmp_path / "out"), "--stages",
+                        str(tmp_path / "stages")], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "out" / "test3.jpg").is_file()
     rows = [json.loads(x) for x in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]

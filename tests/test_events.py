@@ -5,8 +5,6 @@ from __future__ import annotations
 import json
 import math
 import shutil
-import subprocess
-import sys
 from fractions import Fraction
 
 import cv2
@@ -26,6 +24,8 @@ from lanefinder.events import (
     write_events,
 )
 from lanefinder.synth import SCENARIOS, Mount, Renderer, Scenario, manoeuvre_shift, write_sequence
+
+from clirun import run_lanefinder
 
 FPS = 25.0
 W = 3.7  # lane width, m; with the default 1.8 m car a wheel reaches a line at |offset| = 0.95 m
@@ -318,9 +318,8 @@ def test_the_pipeline_finds_a_synthetic_lane_change(change_sequence):
 def test_video_command_writes_events(change_sequence, tmp_path):
     video = str(change_sequence / "video.mp4")
     opts = ["-c", str(change_sequence / "config.toml"), "--quiet"]
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", video, *opts, "--telemetry",
-                        str(tmp_path / "t.csv"), "--events", str(tmp_path / "e.csv")],
-                       capture_output=True, text=True, timeout=300)
+    p = run_lanefinder("video", video, *opts, "--telemetry",
+                       str(tmp_path / "t.csv"), "--events", str(tmp_path / "e.csv"), timeout=300)
     assert p.returncode == 0, p.stderr
     assert "events: departure-left 0, departure-right 0, lane-change-left 0, lane-change-right 1" in p.stdout
     assert [e["kind"] for e in read_events(tmp_path / "e.csv") if e["kind"] != "lost"] == ["lane-change-right"]
@@ -331,7 +330,7 @@ def test_video_command_writes_events(change_sequence, tmp_path):
              ([video, "--events", str(tmp_path / "t2.csv"), "--telemetry", str(tmp_path / "t2.csv")], "two outputs"),
              ([str(src), "--events", str(src), "--telemetry", str(tmp_path / "u.csv")], "overwrite the input")]
     for args, needle in cases:
-        p = subprocess.run([sys.executable, "-m", "lanefinder", "video", *args, *opts], capture_output=True, text=True,
+        p = run_lanefinder("video", *args, *opts,
                            timeout=300)
         assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
         assert len(p.stderr.strip().splitlines()) == 1 and needle in p.stderr, p.stderr
@@ -341,9 +340,8 @@ def test_video_command_writes_events(change_sequence, tmp_path):
 
 @pytest.mark.slow
 def test_video_command_with_events_alone(change_sequence, tmp_path):
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(change_sequence / "video.mp4"), "-c",
-                        str(change_sequence / "config.toml"), "--quiet", "--events", str(tmp_path / "e.parquet")],
-                       capture_output=True, text=True, timeout=300)
+    p = run_lanefinder("video", str(change_sequence / "video.mp4"), "-c", str(change_sequence / "config.toml"),
+                       "--quiet", "--events", str(tmp_path / "e.parquet"), timeout=300)
     assert p.returncode == 0, p.stderr
     assert [e["kind"] for e in read_events(tmp_path / "e.parquet") if e["kind"] != "lost"] == ["lane-change-right"]
     assert sorted(f.name for f in tmp_path.iterdir()) == ["e.parquet"]

@@ -3,12 +3,14 @@
 - Property-based tests (Hypothesis) over configs, frames, telemetry and label files: the
   library raises ``LaneFinderError`` and nothing else.
 - Generated corrupt media (cut at several points, bytes flipped, wrong containers, odd sizes,
-  one frame) through ``lanefinder video`` as a subprocess.
-- The CLI as a subprocess for each bad-input case: the exit status, a single
+  one frame) through ``lanefinder video`` in a process of its own.
+- The CLI in a process of its own for each bad-input case: the exit status, a single
   ``lanefinder: error:`` line, every input's bytes unchanged and no file left behind.
 - A full disk: a small tmpfs when the tests run as root, else a writer that raises ENOSPC.
 
-Every loop is bounded in count (``max_examples``) and every subprocess in time.
+Every loop is bounded in count (``max_examples``) and every process in time. The commands run in
+forks of a process that has imported lanefinder (tests/clirun.py: their own processes, exit status
+and output, without Python's start each time); the Ctrl-C tests start ``python -m lanefinder``.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from lanefinder.pipeline import MIN_FRAME_PX
 from lanefinder.telemetry import read_telemetry
 from lanefinder.video import VideoInfo
 
+from clirun import run_lanefinder
 from conftest import CAL, CLIPS, TEST_IMAGES, faststart_copy
 
 CLIP = CLIPS / "project_37-47s.mp4"
@@ -141,15 +144,14 @@ def test_any_label_and_prediction_files_are_scored_or_refused(tmp_path, gt_rows,
     assert 0.0 <= report.accuracy <= 1.0 and math.isfinite(report.fp)
 
 
-# -- the CLI as a subprocess ------------------------------------------------------------------
+# -- the CLI in a process of its own ----------------------------------------------------------
 def _sha(paths: list[Path]) -> dict[Path, str]:
     return {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in paths if p.is_file()}
 
 
 def run_cli(*args: str, cwd: Path | None = None, timeout: float = RUN_TIMEOUT_S) -> subprocess.CompletedProcess:
-    """Run ``lanefinder ARGS`` in a fresh interpreter, bounded in time."""
-    return subprocess.run([sys.executable, "-m", "lanefinder", *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout, cwd=cwd)
+    """Run ``lanefinder ARGS`` in a process of its own (forked: tests/clirun.py), bounded in time."""
+    return run_lanefinder(*args, cwd=cwd, timeout=timeout)
 
 
 def assert_one_error_line(p: subprocess.CompletedProcess, status: int = 2, says: str = "") -> str:
@@ -421,7 +423,10 @@ def full_disk(tmp_path):
 @pytest.mark.parametrize("command", ["video", "telemetry", "image", "synth"])
 def test_a_full_disk_is_one_clear_line_and_leaves_nothing(full_disk, work, command):
     (full_disk / "old.csv").write_text("old\n")
+    # Each case fills the disk to leave what its writer needs to get going (for time: the video's
+    # writer fails within a second, the synthetic sequence's after a few frames).
     if command == "video":
+        (full_disk / "filler").write_bytes(b"\0" * (2 * 2**20))
         args = ["video", work / "clip.mp4", "-o", full_disk / "o.mp4", "--telemetry", full_disk / "old.csv",
                 "--quiet"]
     elif command == "telemetry":
@@ -430,7 +435,7 @@ def test_a_full_disk_is_one_clear_line_and_leaves_nothing(full_disk, work, comma
     elif command == "image":
         args = ["image", TEST_IMAGES, "-o", full_disk / "out", "--stages", full_disk / "stages"]
     else:
-        (full_disk / "filler").write_bytes(b"\0" * (3 * 2**20 - 512 * 1024))
+        (full_disk / "filler").write_bytes(b"\0" * (3 * 2**20 - 128 * 1024))
         args = ["synth", "--frames", "30", "-o", full_disk / "s"]
     p = run_cli(*args)
     assert p.returncode == 2, (p.returncode, p.stderr[-2000:])
@@ -698,8 +703,14 @@ def test_ctrl_c_while_starting_is_one_line(tmp_path, after_s):
     # (importing lanefinder once loaded OpenCV and NumPy first: a Ctrl-C in its first 0.3 s printed
     # a 24-line traceback from the imports; they now load inside the command, and a Ctrl-C while
     # the command line itself loads is caught by lanefinder._entry)
-    proc = subprocess.Popen([sys.executable, "-m", "lanefinder", "video", str(CLIP), "-o", str(tmp_path / "o.mp4"),
+    # The time counts from when Python has started and runs `-m lanefinder` (as runpy does): a
+    # Ctrl-C before that, in Python's own start (30-60 ms on a busy machine), is Python's (once:
+    # "Could not import runpy module" and a traceback), before any of lanefinder runs.
+    start = ("import runpy, sys; print('started', flush=True); "
+             "runpy.run_module('lanefinder', run_name='__main__', alter_sys=True)")
+    proc = subprocess.Popen([sys.executable, "-c", start, "video", str(CLIP), "-o", str(tmp_path / "o.mp4"),
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None and proc.stdout.readline() == "started\n"
     time.sleep(after_s)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)

@@ -21,6 +21,7 @@ from lanefinder.errors import LaneFinderError
 from lanefinder.review import MAX_BODY_BYTES, Review, create_app, serve
 from lanefinder.telemetry import read_telemetry
 
+from clirun import run_lanefinder
 from conftest import CLIPS, ROOT
 
 CHALLENGE = CLIPS / "challenge_3-7s.mp4"
@@ -298,9 +299,8 @@ def test_the_page_in_a_browser(page, server, fleet_dir, tmp_path):
         cfg = load_config(saved)
         assert cfg.threshold.ridge.min_contrast == 60 and abs(cfg.birdseye.src[0][0] - cx) < 0.2
         assert cfg.threshold.sobel_hls.kernel == 7
-        out = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(HARDER), "-c", str(saved),
-                              "--telemetry", str(tmp_path / "t.csv"), "--end", "1", "--quiet"],
-                             capture_output=True, text=True, timeout=120)
+        out = run_lanefinder("video", str(HARDER), "-c", str(saved),
+                             "--telemetry", str(tmp_path / "t.csv"), "--end", "1", "--quiet", timeout=120)
         assert out.returncode == 0, out.stderr
         assert "frames: 25" in out.stdout
     finally:

@@ -25,6 +25,7 @@ from lanefinder.synth import (
 )
 from lanefinder.telemetry import make_row
 
+from clirun import run_lanefinder
 from conftest import ROOT
 
 
@@ -84,11 +85,9 @@ def test_a_straight_synthetic_frame_gives_both_lines_within_2_px(tmp_path, camer
 @pytest.mark.slow
 def test_synth_command_writes_a_complete_sequence(tmp_path):
     import json
-    import subprocess
-    import sys
 
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "synth", "--scenario", "worn", "--frames", "3",
-                        "--seed", "2", "-o", str(tmp_path)], capture_output=True, text=True)
+    p = run_lanefinder("synth", "--scenario", "worn", "--frames", "3",
+                       "--seed", "2", "-o", str(tmp_path))
     assert p.returncode == 0, p.stderr
     assert {"video.mp4", "gt.jsonl", "camera.json", "config.toml", "scenario.json"} <= {
         f.name for f in tmp_path.iterdir()}
@@ -99,15 +98,13 @@ def test_synth_command_writes_a_complete_sequence(tmp_path):
     rows = [json.loads(x) for x in (tmp_path / "gt.jsonl").read_text().splitlines()]
     assert len(rows) == 3 and {"curvature_per_m", "radius_m", "offset_m", "width_m", "lanes", "h_samples",
                                "raw_file"} <= set(rows[0])
-    rnd = subprocess.run([sys.executable, "-m", "lanefinder", "synth", "--scenario", "curve-entry", "--frames", "1",
-                          "--seed", "5", "--randomise", "--quiet", "-o", str(tmp_path / "r")], capture_output=True,
-                         text=True)
+    rnd = run_lanefinder("synth", "--scenario", "curve-entry", "--frames", "1",
+                         "--seed", "5", "--randomise", "--quiet", "-o", str(tmp_path / "r"))
     assert rnd.returncode == 0, rnd.stderr
     meta = json.loads((tmp_path / "r" / "scenario.json").read_text())
     assert meta["mount"] == {k: v for k, v in asdict(Appearance.random(5).mount).items()}
     assert meta["appearance"]["dash_m"] == Appearance.random(5).dash_m
-    bad = subprocess.run([sys.executable, "-m", "lanefinder", "synth", "--scenario", "moon", "-o", str(tmp_path)],
-                         capture_output=True, text=True)
+    bad = run_lanefinder("synth", "--scenario", "moon", "-o", str(tmp_path))
     assert bad.returncode == 2 and "unknown scenario" in bad.stderr and "Traceback" not in bad.stderr
 
 

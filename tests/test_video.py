@@ -16,6 +16,7 @@ from lanefinder.telemetry import FIELDS, read_telemetry
 from lanefinder.video import VideoInfo, frames
 from lanefinder.videojob import process_video
 
+from clirun import run_lanefinder
 from conftest import CLIPS, faststart_copy
 
 # Every test here decodes and encodes video, most in a subprocess.
@@ -72,8 +73,7 @@ def test_contact_sheet_and_plot(run_csv, tmp_path):
     assert sheet is not None and sheet.shape[1] > 1000
     # The frames on the sheet, by their place in the run: 20 spread over the 30, first and last included.
     assert len(summary.sheet_frames) == 20 and summary.sheet_frames[0] == 0 and summary.sheet_frames[-1] == 29
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "plot", str(out / "t.csv"), "-o", str(tmp_path / "p.png")],
-                       capture_output=True, text=True)
+    p = run_lanefinder("plot", str(out / "t.csv"), "-o", str(tmp_path / "p.png"))
     assert p.returncode == 0, p.stderr
     assert cv2.imread(str(tmp_path / "p.png")).shape[0] > 300
 
@@ -104,8 +104,7 @@ def test_never_writes_over_its_input(tmp_path):
 def test_corrupt_video_is_a_clear_error(tmp_path):
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(np.random.default_rng(0).integers(0, 255, 200_000, dtype=np.uint8).tobytes())
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(bad), "-o", str(tmp_path / "o.mp4")],
-                       capture_output=True, text=True)
+    p = run_lanefinder("video", str(bad), "-o", str(tmp_path / "o.mp4"))
     assert p.returncode == 2 and "Traceback" not in p.stderr
     assert p.stderr.startswith("lanefinder: error: cannot open video")
     assert not (tmp_path / "o.mp4").exists()
@@ -117,8 +116,8 @@ def test_truncated_video_with_its_index_in_front_gives_the_frames_that_could_be_
     faststart_copy(CHALLENGE, whole)
     data = whole.read_bytes()
     cut.write_bytes(data[: int(len(data) * 0.6)])
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
-                        "--telemetry", str(tmp_path / "t.csv"), "--quiet"], capture_output=True, text=True)
+    p = run_lanefinder("video", str(cut), "-o", str(tmp_path / "o.mp4"),
+                       "--telemetry", str(tmp_path / "t.csv"), "--quiet")
     assert p.returncode == 0, p.stderr
     assert "the input ended early" in p.stdout
     n = count_frames(tmp_path / "o.mp4")
@@ -131,8 +130,8 @@ def test_truncated_video_with_its_index_at_the_end_is_a_clear_error(tmp_path):
     data = CHALLENGE.read_bytes()
     assert data.find(b"moov") > len(data) // 2  # the clip keeps its index at the end
     cut.write_bytes(data[: int(len(data) * 0.6)])
-    p = subprocess.run([sys.executable, "-m", "lanefinder", "video", str(cut), "-o", str(tmp_path / "o.mp4"),
-                        "--telemetry", str(tmp_path / "t.csv"), "--quiet"], capture_output=True, text=True)
+    p = run_lanefinder("video", str(cut), "-o", str(tmp_path / "o.mp4"),
+                       "--telemetry", str(tmp_path / "t.csv"), "--quiet")
     assert p.returncode == 2 and "Traceback" not in p.stderr
     assert p.stderr.startswith("lanefinder: error: cannot open video") and len(p.stderr.strip().splitlines()) == 1
     assert not list(tmp_path.glob("o.mp4")) and not list(tmp_path.glob("t.csv")) and not list(tmp_path.glob(".*"))

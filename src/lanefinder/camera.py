@@ -44,6 +44,8 @@ Size = tuple[int, int]
 _CORNER_FLAGS = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
 _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
 _ASPECT_TOLERANCE = 0.01
+#: Photos at least this high and wide get a first quick look halved (see :func:`board_visible`).
+_HALVED_LOOK_MIN_PX = 480
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,9 +240,11 @@ def _sub_board_sizes(board: tuple[int, int], min_corners: int = 12) -> list[tupl
 def board_visible(gray: np.ndarray) -> bool:
     """Tell quickly whether a photo shows any chessboard at all (3x3 inner corners or more).
 
-    The sector-based detector (``cv2.findChessboardCornersSB``) takes about 60 ms on a 720p
+    The sector-based detector (``cv2.findChessboardCornersSB``) takes about 120 ms on a 720p
     photo with or without a board, where the classic search of :func:`find_board` spends about
-    4.5 s trying every sub-board of a photo that has none.
+    4.5 s trying every sub-board of a photo that has none.  It looks at the photo halved first
+    (about 30 ms; on the 20 Udacity calibration photos and 8 road photos it decides as the whole
+    photo does), and at the whole photo only when the halved one shows no board.
 
     Parameters
     ----------
@@ -257,6 +261,10 @@ def board_visible(gray: np.ndarray) -> bool:
     >>> board_visible(np.full((240, 320), 128, np.uint8))
     False
     """
+    if min(gray.shape[:2]) >= _HALVED_LOOK_MIN_PX:
+        half = cv2.resize(gray, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+        if cv2.findChessboardCornersSBWithMeta(half, (3, 3), cv2.CALIB_CB_LARGER)[0]:
+            return True
     ok, _, _ = cv2.findChessboardCornersSBWithMeta(gray, (3, 3), cv2.CALIB_CB_LARGER)
     return bool(ok)
 
