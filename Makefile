@@ -24,19 +24,18 @@ demo: $(STAMP)
 
 # Two processes (the machines have 2 cores); a test file stays in one process (its fixtures are shared),
 # and files are handed out slowest first (tests/conftest.py, SLOWEST_FILES).
-# The package is compiled first, and Python may keep what it compiles (where PYTHONDONTWRITEBYTECODE
-# is set, as on the CI machines, each of the suite's 200 or so `lanefinder` processes and Dask
-# workers compiled every module again: about 0.1 s each).
-BYTECODE := PYTHONDONTWRITEBYTECODE=
-
+# The package is compiled first (compileall writes the bytecode even where PYTHONDONTWRITEBYTECODE
+# is set, as on the CI machines, and Python reads it there): the suite's Python processes (Dask
+# workers, `python -m lanefinder` runs, the fork server of tests/clirun.py) no longer each compile
+# every module again (about 0.1 s a process).
 test: $(STAMP)
-	$(BYTECODE) $(BIN)/python -m compileall -q src
-	$(BYTECODE) $(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
+	$(BIN)/python -m compileall -q src
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
 
 # The unit tests and doctests (no full videos, no encoding, no subprocesses), on two processes: under 30 s.
 test-fast: $(STAMP)
-	$(BYTECODE) $(BIN)/python -m compileall -q src
-	$(BYTECODE) $(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile
+	$(BIN)/python -m compileall -q src
+	$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
