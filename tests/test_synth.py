@@ -330,7 +330,8 @@ def test_the_renderers_remainder_is_numpys():
     a = np.concatenate([(rng.standard_normal(600_000) * 50).astype(np.float32),  # more than two passes
                         (rng.random(100_000) * 5000).astype(np.float32), multiples,
                         np.nextafter(multiples, np.float32(0)), np.nextafter(multiples, np.float32(1e9)),
-                        np.float32([0.0, -0.0, 3.7, -3.7, 7.4, -1e-8, 1e-8, 0.06, 14.0, 90.0])])
+                        np.float32([0.0, -0.0, 3.7, -3.7, 7.4, -1e-8, 1e-8, 0.06, 14.0, 90.0, 3e9, -7e12,
+                                    1.234e15])])
     for b in (3.7, 4.5, 90.0, 0.3):
         expected = a % b
         got = _remainder(a.copy(), b)

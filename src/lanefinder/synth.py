@@ -778,23 +778,29 @@ def _exact_remainders(flat: np.ndarray, period: float) -> Iterator[tuple[slice, 
     ``q * period`` (a 24-bit period times a whole number under 2**29) and ``x - q * period``
     (both on the grid of ``x``'s last bit, the result under ``period``) are exact.  So the
     remainder is the exact one, as ``fmod`` and NumPy's remainder give it (a float32 number).
+    The rare values 2**29 periods or more from zero (near the horizon of a sharp curve) are
+    left to NumPy's remainder.
     """
     for i in range(0, flat.size, _REMAINDER_CHUNK):
-        x = flat[i:i + _REMAINDER_CHUNK].astype(np.float64)
+        part = flat[i:i + _REMAINDER_CHUNK]
+        x = part.astype(np.float64)
         q = x / period
         np.floor(q, out=q)
         q *= period
         x -= q
         x[x < 0] += period
         x[x >= period] -= period
+        far = np.abs(part) >= np.float32(2.0**29 * period)
+        if far.any():
+            x[far] = np.remainder(part[far], np.float32(period))
         yield slice(i, i + _REMAINDER_CHUNK), x
 
 
 def _remainder(a: np.ndarray, b: float) -> np.ndarray:
     """Give ``a % b`` for ``b > 0`` in about a quarter of NumPy's time, in place on ``a``.
 
-    ``a`` is a C-contiguous float32 array with values under 2**29 times ``b``; ``b`` a Python
-    float or a float32 (taken as a float32, as NumPy's remainder of a float32 array takes it).
+    ``a`` is a C-contiguous float32 array; ``b`` a Python float or a float32 (taken as a
+    float32, as NumPy's remainder of a float32 array takes it).
     The same floats as NumPy's remainder, bit for bit (``tests/test_synth.py`` checks it).
     """
     if a.dtype != np.float32 or not a.flags.c_contiguous:
