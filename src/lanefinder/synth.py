@@ -770,8 +770,10 @@ _UNDISTORTED: dict[bytes, np.ndarray] = {}
 _REMAINDER_CHUNK = 1 << 18
 
 
-def _exact_remainders(flat: np.ndarray, period: float) -> Iterator[tuple[slice, np.ndarray]]:
-    """Give the remainders of a flat float32 array by a float32 period, exactly, pass by pass.
+def _exact_remainders(a: np.ndarray, period: float) -> Iterator[tuple[slice, np.ndarray]]:
+    """Give the remainders of a C-contiguous float32 array by a period (taken as a float32), exactly, pass by pass.
+
+    Each pass gives its slice of the flattened array and the remainders there (float64).
 
     Worked in float64 (about four times as fast as float32's ``fmod``, a loop in the C library):
     the quotient's floor ``q`` may be one off where the division rounds, and is then corrected;
@@ -781,6 +783,9 @@ def _exact_remainders(flat: np.ndarray, period: float) -> Iterator[tuple[slice, 
     The rare values 2**29 periods or more from zero (near the horizon of a sharp curve) are
     left to NumPy's remainder.
     """
+    if a.dtype != np.float32 or not a.flags.c_contiguous:
+        raise TypeError("the renderer's remainders take a C-contiguous float32 array")
+    flat, period = a.reshape(-1), float(np.float32(period))
     for i in range(0, flat.size, _REMAINDER_CHUNK):
         part = flat[i:i + _REMAINDER_CHUNK]
         x = part.astype(np.float64)
@@ -803,10 +808,8 @@ def _remainder(a: np.ndarray, b: float) -> np.ndarray:
     float32, as NumPy's remainder of a float32 array takes it).
     The same floats as NumPy's remainder, bit for bit (``tests/test_synth.py`` checks it).
     """
-    if a.dtype != np.float32 or not a.flags.c_contiguous:
-        raise TypeError("_remainder works in place on a C-contiguous float32 array")
     flat = a.reshape(-1)
-    for part, r in _exact_remainders(flat, float(np.float32(b))):
+    for part, r in _exact_remainders(a, b):
         flat[part] = r
     return a
 
@@ -816,11 +819,9 @@ def _remainder_below(u: np.ndarray, period: float, limit: float) -> np.ndarray:
 
     (NumPy compares a float32 array with a Python float in float32: so does this.)
     """
-    if u.dtype != np.float32 or not u.flags.c_contiguous:
-        raise TypeError("_remainder_below takes a C-contiguous float32 array")
     out = np.empty(u.shape, bool)
     flat_out, lim = out.reshape(-1), float(np.float32(limit))
-    for part, r in _exact_remainders(u.reshape(-1), float(np.float32(period))):
+    for part, r in _exact_remainders(u, period):
         flat_out[part] = r < lim
     return out
 
