@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 CLIP   := data/clips/project_37-47s.mp4
 
-.PHONY: install demo test test-fast lint bench eval eval-tune eval-unknown eval-events stills stills-synthetic check-videos clean
+.PHONY: install demo test test-fast lint bench eval eval-tune eval-unknown eval-events stills stills-synthetic truth check-videos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +65,10 @@ stills: $(STAMP)
 # Blind stills of the held-out synthetic scenes (frames 10 and 35, default set-up) against their truth.
 stills-synthetic: $(STAMP)
 	$(BIN)/python scripts/stills_synthetic.py --seeds 101 102 --out output/eval
+
+# The three videos' hand-labelled frames (data/truth/): the tracked video and blind stills against them.
+truth: $(STAMP)
+	$(BIN)/python scripts/video_truth.py
 
 check-videos: $(STAMP)
 	$(BIN)/python scripts/check_videos.py

@@ -247,3 +247,20 @@ def test_json_that_python_cannot_hold_is_named(tmp_path, text, needle):
     (tmp_path / "gt.jsonl").write_text(text)
     with pytest.raises(LaneFinderError, match=re.escape(needle)):
         read_ground_truth(tmp_path / "gt.jsonl")
+
+
+@pytest.mark.parametrize(("name", "frames"), [("project_video", 20), ("challenge_video", 20),
+                                              ("harder_challenge_video", 43)])
+def test_the_hand_labels_are_read_by_eval(name, frames):
+    # data/truth/: `lanefinder eval --gt` reads them; each frame's lines are on the TuSimple rows, left of right
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "data" / "truth" / f"{name}.jsonl"
+    gt = read_ground_truth(path)
+    assert len(gt) == frames and all(k.startswith("frame/") for k in gt)
+    for g in gt.values():
+        assert g["h_samples"].tolist() == list(range(400, 720, 10))
+        left, right = g["left_x"], g["right_x"]
+        both = (left >= 0) & (right >= 0)
+        assert (left[both] < right[both]).all()
+        assert len(g["lanes"]) == int((left >= 0).any()) + int((right >= 0).any())

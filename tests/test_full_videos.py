@@ -5,12 +5,14 @@ Figures are produced by scripts/check_videos.py, which these tests share their s
 
 from __future__ import annotations
 
+import json
 from itertools import pairwise
 from pathlib import Path
 
 import pytest
 
-from lanefinder.stats import video_stats
+from lanefinder.pipeline import LaneFinder
+from lanefinder.stats import labelled_stats, video_stats
 from lanefinder.telemetry import read_telemetry
 from lanefinder.videojob import process_video
 
@@ -25,6 +27,15 @@ def _run(name: str, tmp: Path) -> dict:
     process_video(src, None, telemetry=tmp / f"{name}.jsonl", progress=False)  # telemetry only: no encoding
     rows = read_telemetry(tmp / f"{name}.jsonl")
     return {"rows": rows, **video_stats(rows)}
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _labelled(name: str, rows: list[dict]) -> dict:
+    """The run against the video's hand labels (data/truth/; `make truth` prints the same figures)."""
+    labels = [json.loads(line) for line in (ROOT / "data" / "truth" / f"{name}.jsonl").read_text().splitlines()]
+    return labelled_stats(labels, {r["frame"]: r for r in rows}, LaneFinder().birdseye((1280, 720)))
 
 
 def test_project_video_bars(tmp_path):
@@ -42,6 +53,10 @@ def test_project_video_bars(tmp_path):
     median = first[len(first) // 2]
     assert 500 < median < 1500
     assert all(r["curvature_per_m"] < 0 for r in st["rows"] if r["time_s"] < 8)  # bends left
+    # Against the 20 hand-labelled frames: measured accuracy 0.9234, one line off (frame 133, 0.64 m at
+    # the far end of the right line, 60 m ahead, where a label is good to about 0.3 m).
+    lab = _labelled("project_video", st["rows"])
+    assert lab["shown"] == 20 and lab["accuracy"] > 0.91 and len(lab["off_frames"]) <= 1
 
 
 def test_challenge_video_holds_the_lane(tmp_path):
@@ -49,6 +64,9 @@ def test_challenge_video_holds_the_lane(tmp_path):
     assert st["frames"] == 484  # the file holds 485; the last one does not decode
     assert st["lost_pct"] == 0
     assert st["both_seen_pct"] > 94  # measured: see the closing note; the bar is 98%
+    # Against the 20 hand-labelled frames: measured accuracy 0.8914, one line off (frame 127, 0.61 m).
+    lab = _labelled("challenge_video", st["rows"])
+    assert lab["shown"] == 20 and lab["accuracy"] > 0.88 and len(lab["off_frames"]) <= 1
 
 
 def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):
@@ -64,6 +82,11 @@ def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):
              if a["state"] != "lost" and b["state"] != "lost" and abs(b["offset_m"] - a["offset_m"]) > 0.45]
     assert all(r["state"] == "re-detect" for r in leaps), [(r["time_s"], r["state"]) for r in leaps]
     assert len(leaps) <= 3
+    # Against the 43 hand-labelled frames (the 40-frame contact sheet and three in the hairpin), the lane
+    # shown is often wrong: measured accuracy 0.7184, a lane on 41, a line more than 0.5 m off its
+    # marking on 23 (issue 12 asks for none on the sheet).
+    lab = _labelled("harder_challenge_video", rows)
+    assert lab["accuracy"] > 0.70 and len(lab["off_frames"]) <= 23
 
 
 def test_stills_of_tight_bends_give_both_lines():

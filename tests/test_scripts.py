@@ -75,3 +75,68 @@ def test_selfcal_frames_keeps_the_project_clips_set_up():
     assert p.returncode == 0, p.stderr
     assert "an estimate on 4 frames: horizon row 41" in p.stdout and "confirms the set-up in use" in p.stdout
     assert "(+0.0 px), 0 changes" in p.stdout
+
+
+def _label_clip(path: Path):
+    """Write a 3-frame 720p clip: a solid line x = 760 - 0.6 y (rows 440-719), a dashed one x = 700 + 0.5 y.
+
+    The dashed line has a gap on rows 555-625; the hood (rows 686 and below) is dark.
+    """
+    from fractions import Fraction
+
+    import cv2
+    import numpy as np
+
+    from lanefinder.video import VideoInfo, VideoSink
+
+    img = np.full((720, 1280, 3), 90, np.uint8)
+    for y in range(440, 686):
+        cv2.line(img, (round(760 - 0.6 * y) - 6, y), (round(760 - 0.6 * y) + 6, y), (235, 235, 235), 1)
+        if not 555 <= y <= 625:
+            cv2.line(img, (round(700 + 0.5 * y) - 6, y), (round(700 + 0.5 * y) + 6, y), (235, 235, 235), 1)
+    img[686:] = 30
+    info = VideoInfo(width=1280, height=720, fps=Fraction(25), total_frames=3, duration_s=0.12, codec="h264")
+    with VideoSink(path, info) as sink:
+        for _ in range(3):
+            sink.write(img)
+
+
+@pytest.mark.slow  # writes and reads a video
+def test_label_truth_places_rough_points_on_the_paint(tmp_path):
+    import json
+
+    clip = tmp_path / "clip.mp4"
+    _label_clip(clip)
+    # rough points, 8-12 px off the paint; the right line's span ends at row 470 and at 680 (the hood)
+    (tmp_path / "a.txt").write_text("# rough\n1 L 680:362 560:432 450:498\n1 R 680:1050 600:1010 470:925\n2\n")
+    p = run_script(ROOT / "scripts" / "label_truth.py", clip, tmp_path / "a.txt", "-o", tmp_path / "t.jsonl",
+                   "--check", tmp_path / "check")
+    assert p.returncode == 0, p.stderr
+    rows = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text().splitlines()]
+    assert [r["frame"] for r in rows] == [1, 2]
+    hs = rows[0]["h_samples"]
+    left, right = dict(zip(hs, rows[0]["left_x"], strict=True)), dict(zip(hs, rows[0]["right_x"], strict=True))
+    for y in range(450, 681, 10):  # on the paint, within 1.5 px
+        assert abs(left[y] - (760 - 0.6 * y)) < 1.5, (y, left[y])
+    for y in range(470, 681, 10):  # in the dash gap (560-620) filled in, along the rough points' shape
+        assert abs(right[y] - (700 + 0.5 * y)) < (3.0 if 555 <= y <= 625 else 1.5), (y, right[y])
+    assert left[440] == -2 and right[460] == -2  # above the points: not labelled
+    assert abs(left[710] - (760 - 0.6 * 710)) < 1.5  # under the hood, straight on
+    assert rows[1]["lanes"] == [] and set(rows[1]["left_x"]) == {-2.0}  # a frame with no line seen
+    assert sorted(q.name for q in (tmp_path / "check").iterdir()) == ["00001.png", "00002.png"]
+
+
+@pytest.mark.slow  # writes a video
+@pytest.mark.parametrize(("anchors", "says"), [("1 L 680:362\n", "two points or more"),
+                                               ("1 X 680:362 560:432\n", "a side L or R"),
+                                               ("1 L 680-362 560:432\n", "expected 'FRAME L|R y:x"),
+                                               ("1 L 680:362 560:432\n1 L 680:362 560:432\n", "given twice"),
+                                               ("9 L 680:362 560:432\n", "frames not in the video: [9]")])
+def test_label_truth_refuses_bad_points_with_one_line(tmp_path, anchors, says):
+    clip = tmp_path / "clip.mp4"
+    _label_clip(clip)
+    (tmp_path / "a.txt").write_text(anchors)
+    p = run_script(ROOT / "scripts" / "label_truth.py", clip, tmp_path / "a.txt", "-o", tmp_path / "t.jsonl")
+    assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "t.jsonl").exists()

@@ -1,4 +1,4 @@
-"""Figures of a whole run, from its telemetry rows: lane shares, width, offset jumps, curves.
+"""Figures of a whole run, from its telemetry rows: lane shares, width, offset jumps, curves, hand labels.
 
 These are what ``make check-videos`` prints per video, and what the tests hold the full
 videos to.
@@ -16,6 +16,7 @@ from .errors import LaneFinderError
 __all__ = [
     "check_counts",
     "curves",
+    "labelled_stats",
     "lane_shares",
     "unchecked_frames",
     "video_stats",
@@ -230,3 +231,74 @@ def lane_shares(states: list[str | None], widths: list[float | None]) -> dict[st
     return {"frames": n, "pct_lane": round(100 * (n - lost) / n, 2) if n else None,
             "pct_lost": round(100 * lost / n, 2) if n else None,
             "mean_width_m": round(sum(known) / len(known), 4) if known else None}
+
+
+def labelled_stats(labels: list[dict], rows: dict[int, dict], be, limit_m: float = 0.5) -> dict[str, Any]:
+    """Judge a run's rows (or blind stills') against hand labels of its frames.
+
+    Parameters
+    ----------
+    labels : list of dict
+        Labelled frames (``data/truth/*.jsonl``, made by ``scripts/label_truth.py``): ``frame``,
+        ``h_samples`` and ``left_x``/``right_x``, the car's lane's lines where their paint is
+        seen (negative elsewhere).
+    rows : dict of int to dict
+        Telemetry rows (``state``, ``left_x``, ``right_x`` on the same rows) by frame; a
+        labelled frame without a row counts as showing no lane.
+    be : BirdsEye
+        The set-up whose road plane measures distances (:func:`lanefinder.evaluate.road_errors_m`).
+    limit_m : float
+        A drawn line further than this from its marking on the road, at any labelled row, is off.
+
+    Returns
+    -------
+    dict
+        ``frames``; ``shown`` (frames with a lane); ``accuracy``, ``fp``, ``fn`` (TuSimple, as
+        ``lanefinder eval``: :func:`lanefinder.evaluate.evaluate`); ``off_frames`` (frames with a
+        line off, in order); ``lines_off`` and ``lines_not_drawn`` (labelled lines drawn off, and
+        not drawn while the frame shows a lane); ``per_frame``: ``frame``, ``state``, and per side
+        the largest distance, m (None: the line is not both labelled and drawn).
+
+    Examples
+    --------
+    >>> from lanefinder import LaneFinder
+    >>> be = LaneFinder().birdseye((1280, 720))
+    >>> label = {"frame": 3, "h_samples": [680, 690, 700], "left_x": [330.0, 320.0, 310.0],
+    ...          "right_x": [-2.0, -2.0, -2.0]}
+    >>> row = {"state": "tracking", "left_x": [332.0, 321.0, 311.0], "right_x": [990.0, 1000.0, 1010.0]}
+    >>> s = labelled_stats([label], {3: row}, be)
+    >>> s["shown"], s["accuracy"], s["off_frames"], s["per_frame"][0]["left_m"]
+    (1, 1.0, [], 0.01)
+    """
+    from .evaluate import evaluate, road_errors_m
+
+    gt, pred, per_frame, off = {}, {}, [], []
+    lines_off = not_drawn = shown = 0
+    for lab in labels:
+        f = int(lab["frame"])
+        hs = np.asarray(lab["h_samples"], np.float64)
+        truth = {side: np.asarray(lab[f"{side}_x"], np.float64) for side in ("left", "right")}
+        gt[f] = {"lanes": [x for x in truth.values() if (x >= 0).any()], "h_samples": hs}
+        r = rows.get(f)
+        lane = r is not None and r.get("state") != "lost"
+        shown += lane
+        drawn = {side: np.asarray(r[f"{side}_x"], np.float64) if lane else np.full(hs.shape, -2.0)
+                 for side in ("left", "right")}
+        pred[f] = {"lanes": [x for x in drawn.values() if (x >= 0).any()]}
+        record: dict[str, Any] = {"frame": f, "state": r.get("state") if r else None}
+        bad = False
+        for side in ("left", "right"):
+            err = road_errors_m(be, hs, truth[side], drawn[side])
+            worst = float(np.nanmax(err)) if np.isfinite(err).any() else None
+            record[f"{side}_m"] = None if worst is None else round(worst, 3)
+            if worst is not None and worst > limit_m:
+                lines_off += 1
+                bad = True
+            elif lane and worst is None and (truth[side] >= 0).any():
+                not_drawn += 1
+        if bad:
+            off.append(f)
+        per_frame.append(record)
+    rep = evaluate(gt, pred)
+    return {"frames": len(labels), "shown": shown, "accuracy": rep.accuracy, "fp": rep.fp, "fn": rep.fn,
+            "off_frames": off, "lines_off": lines_off, "lines_not_drawn": not_drawn, "per_frame": per_frame}

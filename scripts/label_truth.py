@@ -1,0 +1,254 @@
+"""Hand labels for a video: rough points, snapped to the centre of the paint, row by row.
+
+    python scripts/label_truth.py VIDEO ANCHORS -o TRUTH.jsonl [--check DIR]
+
+ANCHORS is a text file written by a person looking at the frames (a pixel grid helps: `--grid
+DIR` writes each named frame with one).  One line per line of paint of the car's own lane:
+
+    # frame side  y:x y:x ...      (side L or R; frame pixels, any order)
+    1005 L 672:450 640:560 600:700 570:800
+    1044                          (a frame where no line of the lane is seen)
+
+A line is labelled on the TuSimple rows (`lanefinder.telemetry.h_samples`) within its points'
+span, and nowhere else: the labeller puts points where the line is seen to run.  It is placed
+by its paint, nearest row first: each row's guess is the previous row's result moved as the
+points bend, and the paint is found within 22 px of it, as the centroid of the strongest ridge
+across the row (brighter than the road on both sides: white paint by brightness, yellow by Lab
+b; both strips of a double line when they lie in the window).  A row whose ridge is weaker than
+10 levels (a dashed line's gap, glare, shade) is filled in, as TuSimple's labels run on through
+a dashed line's gaps: the points' shape, moved by the nearest rows' offsets from it where the
+paint was found (blended between two).  A line with no row of paint found is not labelled.
+The car's hood hides the last 30-40 rows of the Udacity videos: a line whose lowest point is at
+row 665 or lower runs on under the hood to the frame's bottom, straight on from its last 30 px,
+as TuSimple's lines run to the bottom of the frame.
+
+TRUTH.jsonl has one row per frame with `frame`, `h_samples`, `lanes` (the lines seen, as
+`lanefinder eval --gt` reads them) and `left_x`/`right_x` (-2 where not labelled).  With `--check
+DIR`, every frame is written with its labels (green: found; cyan: filled in; red circle:
+a row guessed but not found), to be checked by eye before the labels are used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from lanefinder.telemetry import h_samples
+from lanefinder.video import frames
+
+HALF_PX = 22
+HOOD_ROW = 665  # (720-row frames) a line's lowest point at or below this row is at the car's hood
+MIN_RIDGE = 10.0
+
+
+def read_anchors(path: Path) -> dict[int, dict[str, list[tuple[int, float]]]]:
+    """Read the anchors file: {frame: {"L"/"R": [(y, x), ...] by y}}; a ValueError names a bad line."""
+    out: dict[int, dict[str, list[tuple[int, float]]]] = {}
+    for n, raw in enumerate(path.read_text().splitlines(), 1):
+        text = raw.split("#", 1)[0].split()
+        if not text:
+            continue
+        if len(text) == 1 and text[0].isdigit():  # a frame to label where no line of the lane is seen
+            out.setdefault(int(text[0]), {})
+            continue
+        try:
+            frame, side = int(text[0]), text[1]
+            pts = sorted((int(y), float(x)) for y, x in (p.split(":") for p in text[2:]))
+        except (ValueError, IndexError):
+            raise ValueError(f"{path}:{n}: expected 'FRAME L|R y:x y:x ...', got {raw.strip()!r}") from None
+        if side not in ("L", "R") or len(pts) < 2:
+            raise ValueError(f"{path}:{n}: a side L or R and two points or more are needed")
+        if side in out.setdefault(frame, {}):
+            raise ValueError(f"{path}:{n}: frame {frame} side {side} is given twice")
+        out[frame][side] = pts
+    return out
+
+
+def ridges(image: np.ndarray) -> np.ndarray:
+    """Give how much each pixel stands above the road on both sides of it, as paint does: white or yellow.
+
+    The road is sampled 5-10, 10-20 and 15-30 px to each side (paint is 3 to 30 px wide across
+    these frames); a pixel counts by its rise over the brighter side, at the best of the three.
+    So the edge of a shadow or of a dark seam, bright on one side only, is no ridge.
+    """
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    yellow = cv2.cvtColor(image, cv2.COLOR_BGR2LAB)[:, :, 2].astype(np.float32)
+    best = np.full(grey.shape, -np.inf, np.float32)
+    for near in (5, 10, 15):
+        width = near
+        for plane, gain in ((grey, 1.0), (yellow, 2.0)):
+            side = cv2.blur(plane, (width, 1))  # centred means; shifted below to either side
+            shift = near + width // 2
+            left = np.empty_like(side)
+            right = np.empty_like(side)
+            left[:, shift:] = side[:, :-shift]
+            left[:, :shift] = side[:, :1]
+            right[:, :-shift] = side[:, shift:]
+            right[:, -shift:] = side[:, -1:]
+            best = np.maximum(best, gain * (plane - np.maximum(left, right)))
+    return cv2.blur(best, (3, 3))
+
+
+def snap(ridge_row: np.ndarray, guess: float) -> float | None:
+    """Give the paint's centre near ``guess`` on one row (None when no ridge is strong enough)."""
+    x = guess
+    for _ in range(2):  # once more about the first answer, so the window sits on the paint
+        lo, hi = max(0, round(x) - HALF_PX), min(ridge_row.shape[0], round(x) + HALF_PX + 1)
+        if hi - lo < 5:
+            return None
+        seg = ridge_row[lo:hi]
+        peak = float(seg.max())
+        if peak < MIN_RIDGE:
+            return None
+        w = np.where(seg > 0.4 * peak, seg, 0.0)
+        x = lo + float((w * np.arange(hi - lo)).sum() / w.sum())
+    return x
+
+
+def follow(ridge: np.ndarray, rows: list[int], pts: list[tuple[int, float]]) -> tuple[list[float], list]:
+    """Follow one line between its points; give x per row (-2 unseen) and what was tried (for the check image)."""
+    ay, ax = [p[0] for p in pts], [p[1] for p in pts]
+    xs, tried = [-2.0] * len(rows), []
+    prev: tuple[int, float] | None = None
+    for i in range(len(rows) - 1, -1, -1):  # nearest row first
+        y = rows[i]
+        if not ay[0] - 3 <= y <= ay[-1] + 3:
+            continue
+        guess = float(np.interp(y, ay, ax))
+        if prev is not None and prev[0] - y <= 30:  # the paint as last found, moved as the points bend
+            guess = prev[1] + guess - float(np.interp(prev[0], ay, ax))
+        x = snap(ridge[y], guess)
+        tried.append((y, guess, x))
+        if x is not None:
+            xs[i] = round(x, 1)
+            prev = (y, x)
+    # Where the paint was not found within the points' span (a dashed line's gap, a patch of
+    # glare) the line runs on: the points' shape, moved by the nearest found rows' offsets from it
+    # (blended between two).  Beyond the span nothing is labelled.
+    found = [i for i, x in enumerate(xs) if x >= 0]
+    if not found:
+        return xs, tried
+    offset = {i: xs[i] - float(np.interp(rows[i], ay, ax)) for i in found}
+    for i, y in enumerate(rows):
+        if xs[i] >= 0 or not ay[0] - 3 <= y <= ay[-1] + 3:
+            continue
+        below = [j for j in found if j > i]  # nearer the car
+        above = [j for j in found if j < i]
+        if below and above:
+            j0, j1 = above[-1], below[0]
+            t = (y - rows[j0]) / (rows[j1] - rows[j0])
+            d = offset[j0] + t * (offset[j1] - offset[j0])
+        else:
+            d = offset[below[0]] if below else offset[above[-1]]
+        xs[i] = round(float(np.interp(y, ay, ax)) + d, 1)
+        tried.append((y, xs[i], "filled"))
+    # A line whose lowest point is at the hood (HOOD_ROW or lower) runs on under it to the frame's
+    # bottom, straight on from its last 30 px, as TuSimple's lines run to the bottom of the frame.
+    low = [i for i, x in enumerate(xs) if x >= 0]
+    if ay[-1] >= HOOD_ROW and len(low) >= 4:
+        i1, i0 = low[-1], low[-4]
+        slope = (xs[i1] - xs[i0]) / (rows[i1] - rows[i0])
+        for i in range(i1 + 1, len(rows)):
+            xs[i] = round(xs[i1] + slope * (rows[i] - rows[i1]), 1)
+            tried.append((rows[i], xs[i], "filled"))
+    return xs, tried
+
+
+def check_image(image: np.ndarray, tried: list, frame: int) -> np.ndarray:
+    """Draw what was found (green), filled in (cyan) and guessed but not found (red), with a 100 px scale."""
+    out = image.copy()
+    for x in range(0, out.shape[1], 100):
+        cv2.putText(out, str(x), (x + 2, out.shape[0] - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 255, 255), 1)
+        cv2.line(out, (x, out.shape[0] - 1), (x, out.shape[0] - 20), (0, 255, 255), 1)
+    for y, guess, x in tried:
+        if x is None:
+            cv2.circle(out, (round(guess), y), 4, (0, 0, 255), 1)
+        elif x == "filled":
+            cv2.circle(out, (round(guess), y), 3, (255, 255, 0), -1)
+        else:
+            cv2.circle(out, (round(x), y), 3, (0, 255, 0), -1)
+    cv2.putText(out, f"frame {frame}", (20, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (0, 0, 255), 2)
+    return out
+
+
+def grid_image(image: np.ndarray, frame: int) -> np.ndarray:
+    """Draw a pixel grid for writing anchors: ticks every 20 px across, dashed rows every 20 px from 430."""
+    out = image.copy()
+    h, w = out.shape[:2]
+    for x in range(0, w, 20):
+        for y0, y1 in ((0, 16 if x % 100 == 0 else 8), (h - 1, h - (16 if x % 100 == 0 else 8))):
+            cv2.line(out, (x, y0), (x, y1), (0, 255, 255), 1)
+        if x % 100 == 0:
+            for y in (30, h - 20):
+                cv2.putText(out, str(x), (x + 2, y), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 255, 255), 1)
+    for y in range(round(430 * h / 720), h, 20):
+        out[y, ::6] = (255, 0, 255)
+        cv2.putText(out, str(y), (2, y - 2), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 0, 255), 1)
+    cv2.putText(out, f"frame {frame}", (w // 2 - 60, h - 40), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 255), 2)
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("video", type=Path)
+    ap.add_argument("anchors", type=Path, help="the rough points (see above)")
+    ap.add_argument("-o", "--out", type=Path, help="the truth to write (JSON Lines)")
+    ap.add_argument("--check", type=Path, help="a folder for the frames drawn with their labels")
+    ap.add_argument("--grid", type=Path, help="a folder for the frames drawn with a pixel grid (to write anchors)")
+    a = ap.parse_args()
+    for p in (a.video, a.anchors):
+        if not p.is_file():
+            print(f"label_truth: not found: {p}", file=sys.stderr)
+            return 2
+    if a.out is None and a.grid is None:
+        ap.error("give -o TRUTH.jsonl, or --grid DIR to draw the frames for writing anchors")
+    try:
+        anchors = read_anchors(a.anchors)
+    except ValueError as e:
+        print(f"label_truth: {e}", file=sys.stderr)
+        return 2
+    rows_out, last = [], max(anchors)
+    for folder in (a.check, a.grid):
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+    for f in frames(a.video):
+        if f.index > last:
+            break
+        if f.index not in anchors:
+            continue
+        if a.grid is not None:
+            cv2.imwrite(str(a.grid / f"{f.index:05d}.png"), grid_image(f.image, f.index))
+        rows = h_samples(f.image.shape[0])
+        ridge = ridges(f.image)
+        lines, drawn = {}, []
+        for side in ("L", "R"):
+            pts = anchors[f.index].get(side)
+            xs, tried = follow(ridge, rows, pts) if pts else ([-2.0] * len(rows), [])
+            lines[side] = xs
+            drawn += tried
+        rows_out.append({"frame": f.index, "h_samples": rows,
+                         "lanes": [xs for xs in lines.values() if any(x >= 0 for x in xs)],
+                         "left_x": lines["L"], "right_x": lines["R"]})
+        if a.check is not None:
+            cv2.imwrite(str(a.check / f"{f.index:05d}.png"), check_image(f.image, drawn, f.index))
+    missing = sorted(set(anchors) - {r["frame"] for r in rows_out})
+    if missing:
+        print(f"label_truth: frames not in the video: {missing}", file=sys.stderr)
+        return 2
+    if a.out is not None:
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = a.out.with_name(a.out.name + ".part")
+        tmp.write_text("".join(json.dumps(r) + "\n" for r in rows_out))
+        tmp.replace(a.out)
+        seen = sum(x >= 0 for r in rows_out for x in r["left_x"] + r["right_x"])
+        print(f"wrote {a.out}: {len(rows_out)} frames, {seen} labelled points")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
