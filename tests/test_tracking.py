@@ -288,6 +288,8 @@ def test_counts_and_gains_follow_the_frame_rate():
     assert at_fps(cfg, float("nan")) is cfg and at_fps(cfg, 0.0) is cfg
     fast = at_fps(cfg, 50.0)
     assert (fast.lost_after, fast.hold_gentle_frames, fast.max_misses) == (24, 50, 10)
+    # the hold at the car: the same move per second, over the same time
+    assert (fast.start_free_m, fast.start_both_frames) == (pytest.approx(0.05), 20)
     # A per-frame gain at 50 fps compounds over two frames to the gain of one frame at 25 fps.
     assert 1 - (1 - fast.width_smoothing) ** 2 == pytest.approx(cfg.width_smoothing)
     assert fast.smoothing**2 == pytest.approx(cfg.smoothing)
@@ -312,3 +314,42 @@ def test_at_a_blind_start_a_refused_pairs_sure_line_keeps_its_say_against_a_weak
     tracker.reset()
     v = tracker.update(meas(LEFT, 0.8), meas(np.array([0.0, 0.0, 4.5]), 0.5), blind=True)
     assert v.left.confidence == pytest.approx(0.4) and not v.left.found and "one-line-start" in v.reasons
+
+
+def _seen_from(c, start_m: float) -> Line:
+    return replace(meas(c), start_m=start_m)
+
+
+@pytest.mark.parametrize(("start_m", "moved"), [(2.0, None), (10.0, 0.1)])
+def test_a_line_seen_only_from_ahead_moves_the_lane_at_the_car_by_little(tracker, start_m, moved):
+    # Both lines measured 0.3 m to the right: seen from 2 m ahead, the lane follows as smoothing allows;
+    # seen only from 10 m ahead (a dash gap beside the car), at most tracking.start_free_m a frame.
+    for _ in range(3):
+        tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    shift = np.array([0.0, 0.0, 0.3])
+    free = _seen_from(np.add(LEFT, shift), start_m), _seen_from(np.add(RIGHT, shift), start_m)
+    t = tracker.update(*free, blind=False)
+    step_m = t.left.fit_m[2] - LEFT[2]
+    if moved is None:
+        assert step_m > 0.15
+    else:
+        assert 0 < step_m <= moved + 1e-9 and t.right.fit_m[2] - RIGHT[2] <= moved + 1e-9
+        # the heading and bend ahead are taken as measured (smoothed); only the offset at the car is held
+        np.testing.assert_allclose(t.left.fit_m[:2], LEFT[:2], atol=1e-9)
+
+
+def test_lines_moving_apart_or_seen_one_at_a_time_are_not_held(tracker):
+    for _ in range(3):
+        tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    # apart: the lane widens at the car (or the car pitches on a bump): followed as smoothing allows
+    t = tracker.update(_seen_from(np.add(LEFT, [0, 0, -0.3]), 10.0), _seen_from(np.add(RIGHT, [0, 0, 0.3]), 10.0),
+                       blind=False)
+    assert t.left.fit_m[2] - LEFT[2] < -0.12 and t.right.fit_m[2] - RIGHT[2] > 0.12
+    # one line at a time for longer than tracking.start_both_frames: the lane goes by the line it sees
+    tracker.reset()
+    for _ in range(3):
+        tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    for _ in range(TrackingConfig().start_both_frames + 1):
+        tracker.update(meas(LEFT), None, blind=False)
+    t = tracker.update(_seen_from(np.add(LEFT, [0, 0, 0.3]), 10.0), None, blind=False)
+    assert t.left.fit_m[2] - LEFT[2] > 0.12

@@ -758,6 +758,18 @@ class TrackingConfig(_Section):
         the one kept, keeps its own).
     inferred_weight : float
         An inferred line is smoothed with this times the confidence of the line it comes from.
+    start_gap_m : float
+        A measured line whose nearest paint lies further ahead than this (m: a dash gap beside
+        the car, paint hidden near it) is extrapolated at the car: it may move the tracked line
+        there by at most ``start_free_m`` a frame, and the rest of that move is held back (its
+        heading and bend are taken as measured; 0: off).
+    start_free_m : float
+        How far such a measurement may move the line at the car in one frame, m (at
+        ``reference_fps``).
+    start_both_frames : int
+        The hold applies only while both lines were measured within this many frames: a lane
+        seen by one line at a time for longer (a hairpin, where the near paint leaves the view)
+        goes by the line it sees.
     min_confidence : float
         Confidence a measured line needs to be used.
     yellow_line_side : str
@@ -819,6 +831,11 @@ class TrackingConfig(_Section):
     # the confidence of the line it is drawn from.
     rejected_pair_confidence: Fraction = 0.5
     inferred_weight: Fraction = 0.5
+    # A line seen only from some way ahead (its nearest paint beyond ``start_gap_m``) says little
+    # about where it is at the car: there it moves the track by ``start_free_m`` a frame at most.
+    start_gap_m: Annotated[float, Field(ge=0, le=100)] = 6.0
+    start_free_m: Annotated[float, Field(gt=0, le=10)] = 0.1
+    start_both_frames: Annotated[int, Field(ge=0, le=100_000)] = 10
     min_confidence: Fraction = 0.3
     # Where a yellow marking may bound the car's lane: "left" for right-hand traffic as in North
     # America (yellow separates opposing traffic, so it is never the lane's right line), "right"

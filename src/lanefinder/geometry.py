@@ -58,6 +58,8 @@ class LineFit:
         0..1: support, span and residual together.
     top_px : float
         The farthest row of the pixels fitted (the smallest y), bird's-eye pixels (NaN: not given).
+    bottom_px : float
+        The nearest row of the pixels fitted (the largest y), bird's-eye pixels (NaN: not given).
 
     Examples
     --------
@@ -71,6 +73,7 @@ class LineFit:
     span: float
     confidence: float
     top_px: float = math.nan
+    bottom_px: float = math.nan
 
 
 def poly_x(coeffs: np.ndarray, y: np.ndarray | float) -> np.ndarray | float:
@@ -347,7 +350,7 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     n = int(x.size)
     if n < cfg.min_pixels:
         return None
-    top_px = float(np.min(y))
+    top_px, bottom_px = float(np.min(y)), float(np.max(y))
     if n > cfg.max_points:  # every step-th row keeps the fit and bounds the cost
         step = n // cfg.max_points + 1  # (whole rows: every step-th pixel would take some columns of each row)
         keep = np.asarray(y).astype(np.intp) % step == 0
@@ -365,7 +368,7 @@ def _fit_marking(x: np.ndarray, y: np.ndarray, height_px: int, cfg: FitParams) -
     support = min(1.0, n / cfg.support_pixels)
     quality = 1.0 / (1.0 + (residual / cfg.residual_scale_px) ** 2)
     confidence = min(1.0, max(0.0, math.sqrt(min(1.0, span / cfg.full_span_fraction)) * support * quality))
-    return LineFit(coeffs, n, residual, span, confidence, top_px)
+    return LineFit(coeffs, n, residual, span, confidence, top_px, bottom_px)
 
 
 def _robust_fit(x: np.ndarray, y: np.ndarray, degree: int, cfg: FitParams) -> tuple[np.ndarray, float]:
@@ -443,7 +446,7 @@ def fit_lane(left: tuple[np.ndarray, np.ndarray], right: tuple[np.ndarray, np.nd
         ab = (1 - lam) * fit.coeffs_px[:2] + lam * shared
         c = float(np.median(x - poly_x((ab[0], ab[1], 0.0), y.astype(np.float64))))  # on the pixels the fit took
         out.append(LineFit(np.array([ab[0], ab[1], c]), fit.n_pixels, fit.residual_px, fit.span, fit.confidence,
-                           fit.top_px))
+                           fit.top_px, fit.bottom_px))
     return out[0], out[1]
 
 

@@ -47,6 +47,10 @@ class Line:
         How far ahead the measured marking reaches, metres along the road from the bird's-eye
         bottom row (the d of ``fit_m``): beyond the view when the far field followed it; NaN
         when the line was not found this frame.
+    start_m : float
+        How far ahead its nearest measured marking lies, metres from the bird's-eye bottom row
+        (more than a few metres: a dash gap, or paint hidden near the car, so the line at the car
+        is extrapolated); NaN when the line was not found this frame.
     far_fit_px : (3,) ndarray or None
         The line beyond the bird's-eye view's top edge, (a, b, c) in bird's-eye pixels, valid
         for y from ``far_end_px`` to 0 (see :mod:`lanefinder.farfield`); None when the marking
@@ -68,6 +72,7 @@ class Line:
     inferred: bool
     n_pixels: int = 0
     range_m: float = math.nan
+    start_m: float = math.nan
     far_fit_px: np.ndarray | None = None
     far_end_px: float = math.nan
 

@@ -225,15 +225,16 @@ def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits
 
 
 def _line(fit: LineFit | None, scale: Scale) -> Line | None:
-    """Make a measured line's record; its range is how far ahead its farthest fitted pixel lies.
+    """Make a measured line's record; its range (start) is how far ahead its farthest (nearest) fitted pixel lies.
 
     (Pixels the fit left out, specks beyond a dash, do not stretch it.)
     """
     if fit is None:
         return None
     reach_m = (scale.height_px - fit.top_px) * scale.ym_per_px
+    start_m = (scale.height_px - fit.bottom_px) * scale.ym_per_px
     return Line(fit_px=fit.coeffs_px, fit_m=px_to_m(fit.coeffs_px, scale), confidence=fit.confidence,
-                found=True, inferred=False, n_pixels=fit.n_pixels, range_m=reach_m)
+                found=True, inferred=False, n_pixels=fit.n_pixels, range_m=reach_m, start_m=start_m)
 
 
 def measure(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer,

@@ -285,7 +285,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     """Give the tracking settings for a video at ``fps``: the same times as at ``cfg.reference_fps``.
 
     Counts of frames (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
-    ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``) scale with the frame rate; a per-frame smoothing
+    ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``, ``start_both_frames``) scale with the
+    frame rate, and so does the per-frame move ``start_free_m`` (inversely); a per-frame smoothing
     gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
     ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
     same seconds; a lone line still needs at least two sightings to start a lane after a lost one
@@ -332,7 +333,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
         if cfg.weak_start_frames else 0,
         "smoothing": cfg.smoothing ** (1 / ratio),
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
-        "width_smoothing": gain(cfg.width_smoothing), "reference_fps": fps})
+        "width_smoothing": gain(cfg.width_smoothing), "start_free_m": cfg.start_free_m / ratio,
+        "start_both_frames": count(cfg.start_both_frames) if cfg.start_both_frames else 0, "reference_fps": fps})
 
 
 def hold_frames(track: Track, cfg: TrackingConfig) -> int:
@@ -509,17 +511,44 @@ def _unconfirmed(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list
     return None if confirmed else cand
 
 
-def _commit(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float], rules: Rules) -> Track:
-    """Rule 6: smooth the fits into the track (a line seen again after being guessed snaps to it)."""
+def _held_at_car(old: Fit, new: Fit, start_m: float, cfg: TrackingConfig) -> Fit:
+    """Hold back a measured line seen only from ``start_m`` ahead: at the car it may move ``cfg.start_free_m``.
+
+    Its position at the car (``c``) moves from the tracked line ``old`` by at most
+    ``start_free_m``; its heading and bend are taken as measured.  Nearer paint (within
+    ``start_gap_m``), or ``start_gap_m`` 0, takes the measurement as it is.
+    """
+    if not (cfg.start_gap_m > 0 and start_m > cfg.start_gap_m):
+        return new
+    move = float(new[2] - old[2])
+    excess = move - float(np.clip(move, -cfg.start_free_m, cfg.start_free_m))
+    if excess == 0:
+        return new
+    return new - np.array([0.0, 0.0, excess])
+
+
+def _commit(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float], rules: Rules,
+            start_m: tuple[float, float] = (math.nan, math.nan)) -> Track:
+    """Rule 6: smooth the fits into the track (a line seen again after being guessed snaps to it).
+
+    A measured line whose nearest paint is ``tracking.start_gap_m`` or more ahead (``start_m``)
+    moves the line at the car by ``tracking.start_free_m`` at most before smoothing.
+    """
     c = rules.cfg
     fresh = track.needs_blind_search(c)
+    # Both lines moving apart (or together) at the car is the lane's width, or the car pitching on
+    # a bump (the flat-road view stretches the lane): not held.
+    apart = ok[0] and ok[1] and not fresh and (fits[0][2] - track.fits_m[0][2]) * (  # type: ignore[index]
+        fits[1][2] - track.fits_m[1][2]) < 0  # type: ignore[index]
     new_fits = []
     for i in (0, 1):
         if fresh or (ok[i] and track.guessed[i] > 0):
             new_fits.append(fits[i].copy())
         else:
             weight = conf[i] if ok[i] else c.inferred_weight * conf[1 - i]
-            new_fits.append(_smooth(track.fits_m[i], fits[i], weight, rules))  # type: ignore[arg-type]
+            held = ok[i] and not apart and track.since_both <= c.start_both_frames  # (one line at a time: goes by it)
+            target = _held_at_car(track.fits_m[i], fits[i], start_m[i], c) if held else fits[i]  # type: ignore[arg-type]
+            new_fits.append(_smooth(track.fits_m[i], target, weight, rules))  # type: ignore[arg-type]
     guessed = (0 if ok[0] else track.guessed[0] + 1, 0 if ok[1] else track.guessed[1] + 1)
     return replace(track, fits_m=(new_fits[0], new_fits[1]), misses=0, guessed=guessed)
 
@@ -601,6 +630,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         # The lane these lines make would not hold the car: not this lane.
         reasons.append(reason)
         return _miss(track, reasons, conf_t, measured, blind, rules)
-    track = _commit(track, fits, ok, conf, rules)
+    starts = tuple(m.start_m if taken and m is not None else math.nan for m, taken in zip(measured, ok, strict=True))
+    track = _commit(track, fits, ok, conf, rules, starts)  # type: ignore[arg-type]
     left, right = _lines(track.fits_m, (ok[0], ok[1]), conf_t, measured, rules, shown=True)
     return track, Verdict(left, right, REDETECT if blind else TRACKING, 0, tuple(reasons))
