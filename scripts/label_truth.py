@@ -32,17 +32,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from lanefinder.errors import LaneFinderError
 from lanefinder.telemetry import h_samples
-from lanefinder.video import frames
+from lanefinder.video import VideoInfo, frames
 
+# At 720 rows (scaled with the frame's height): the window about a guess, and the row from which
+# a line's lowest point is at the car's hood (the Udacity videos' hood hides rows 686-719).
 HALF_PX = 22
-HOOD_ROW = 665  # (720-row frames) a line's lowest point at or below this row is at the car's hood
+HOOD_ROW = 665
 MIN_RIDGE = 10.0
 
 
@@ -59,6 +64,8 @@ def read_anchors(path: Path) -> dict[int, dict[str, list[tuple[int, float]]]]:
         try:
             frame, side = int(text[0]), text[1]
             pts = sorted((int(y), float(x)) for y, x in (p.split(":") for p in text[2:]))
+            if frame < 0 or not all(math.isfinite(x) for _, x in pts):
+                raise ValueError
         except (ValueError, IndexError):
             raise ValueError(f"{path}:{n}: expected 'FRAME L|R y:x y:x ...', got {raw.strip()!r}") from None
         if side not in ("L", "R") or len(pts) < 2:
@@ -72,14 +79,16 @@ def read_anchors(path: Path) -> dict[int, dict[str, list[tuple[int, float]]]]:
 def ridges(image: np.ndarray) -> np.ndarray:
     """Give how much each pixel stands above the road on both sides of it, as paint does: white or yellow.
 
-    The road is sampled 5-10, 10-20 and 15-30 px to each side (paint is 3 to 30 px wide across
-    these frames); a pixel counts by its rise over the brighter side, at the best of the three.
-    So the edge of a shadow or of a dark seam, bright on one side only, is no ridge.
+    The road is sampled 5-10, 10-20 and 15-30 px to each side at 720 rows (scaled with the
+    frame's height; paint is 3 to 30 px wide across these frames); a pixel counts by its rise over
+    the brighter side, at the best of the three.  So the edge of a shadow or of a dark seam,
+    bright on one side only, is no ridge.
     """
     grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(np.float32)
     yellow = cv2.cvtColor(image, cv2.COLOR_BGR2LAB)[:, :, 2].astype(np.float32)
     best = np.full(grey.shape, -np.inf, np.float32)
-    for near in (5, 10, 15):
+    k = image.shape[0] / 720
+    for near in sorted({max(1, round(n * k)) for n in (5, 10, 15)}):
         width = near
         for plane, gain in ((grey, 1.0), (yellow, 2.0)):
             side = cv2.blur(plane, (width, 1))  # centred means; shifted below to either side
@@ -94,11 +103,11 @@ def ridges(image: np.ndarray) -> np.ndarray:
     return cv2.blur(best, (3, 3))
 
 
-def snap(ridge_row: np.ndarray, guess: float) -> float | None:
-    """Give the paint's centre near ``guess`` on one row (None when no ridge is strong enough)."""
+def snap(ridge_row: np.ndarray, guess: float, half_px: int = HALF_PX) -> float | None:
+    """Give the paint's centre within ``half_px`` of ``guess`` on one row (None when no ridge is strong enough)."""
     x = guess
     for _ in range(2):  # once more about the first answer, so the window sits on the paint
-        lo, hi = max(0, round(x) - HALF_PX), min(ridge_row.shape[0], round(x) + HALF_PX + 1)
+        lo, hi = max(0, round(x) - half_px), min(ridge_row.shape[0], round(x) + half_px + 1)
         if hi - lo < 5:
             return None
         seg = ridge_row[lo:hi]
@@ -111,18 +120,21 @@ def snap(ridge_row: np.ndarray, guess: float) -> float | None:
 
 
 def follow(ridge: np.ndarray, rows: list[int], pts: list[tuple[int, float]]) -> tuple[list[float], list]:
-    """Follow one line between its points; give x per row (-2 unseen) and what was tried (for the check image)."""
+    """Follow one line between its points; give x per row (-2 unlabelled) and what was tried (for the check image)."""
+    h, w = ridge.shape
+    k = h / 720
+    half, hood = max(3, round(HALF_PX * k)), HOOD_ROW * k
     ay, ax = [p[0] for p in pts], [p[1] for p in pts]
     xs, tried = [-2.0] * len(rows), []
     prev: tuple[int, float] | None = None
     for i in range(len(rows) - 1, -1, -1):  # nearest row first
         y = rows[i]
-        if not ay[0] - 3 <= y <= ay[-1] + 3:
+        if not ay[0] - 3 * k <= y <= ay[-1] + 3 * k:
             continue
         guess = float(np.interp(y, ay, ax))
-        if prev is not None and prev[0] - y <= 30:  # the paint as last found, moved as the points bend
+        if prev is not None and prev[0] - y <= 30 * k:  # the paint as last found, moved as the points bend
             guess = prev[1] + guess - float(np.interp(prev[0], ay, ax))
-        x = snap(ridge[y], guess)
+        x = snap(ridge[y], guess, half)
         tried.append((y, guess, x))
         if x is not None:
             xs[i] = round(x, 1)
@@ -135,7 +147,7 @@ def follow(ridge: np.ndarray, rows: list[int], pts: list[tuple[int, float]]) -> 
         return xs, tried
     offset = {i: xs[i] - float(np.interp(rows[i], ay, ax)) for i in found}
     for i, y in enumerate(rows):
-        if xs[i] >= 0 or not ay[0] - 3 <= y <= ay[-1] + 3:
+        if xs[i] >= 0 or not ay[0] - 3 * k <= y <= ay[-1] + 3 * k:
             continue
         below = [j for j in found if j > i]  # nearer the car
         above = [j for j in found if j < i]
@@ -147,16 +159,17 @@ def follow(ridge: np.ndarray, rows: list[int], pts: list[tuple[int, float]]) -> 
             d = offset[below[0]] if below else offset[above[-1]]
         xs[i] = round(float(np.interp(y, ay, ax)) + d, 1)
         tried.append((y, xs[i], "filled"))
-    # A line whose lowest point is at the hood (HOOD_ROW or lower) runs on under it to the frame's
-    # bottom, straight on from its last 30 px, as TuSimple's lines run to the bottom of the frame.
+    # A line whose lowest point is at the hood (HOOD_ROW or lower, at 720 rows) runs on under it to
+    # the frame's bottom, straight on from its last 30 px, as TuSimple's lines run to the bottom.
     low = [i for i, x in enumerate(xs) if x >= 0]
-    if ay[-1] >= HOOD_ROW and len(low) >= 4:
+    if ay[-1] >= hood and len(low) >= 4:
         i1, i0 = low[-1], low[-4]
         slope = (xs[i1] - xs[i0]) / (rows[i1] - rows[i0])
         for i in range(i1 + 1, len(rows)):
             xs[i] = round(xs[i1] + slope * (rows[i] - rows[i1]), 1)
             tried.append((rows[i], xs[i], "filled"))
-    return xs, tried
+    # (filled in or run on past the frame's side: not labelled there)
+    return [x if 0 <= x < w else -2.0 for x in xs], tried
 
 
 def check_image(image: np.ndarray, tried: list, frame: int) -> np.ndarray:
@@ -166,6 +179,8 @@ def check_image(image: np.ndarray, tried: list, frame: int) -> np.ndarray:
         cv2.putText(out, str(x), (x + 2, out.shape[0] - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 255, 255), 1)
         cv2.line(out, (x, out.shape[0] - 1), (x, out.shape[0] - 20), (0, 255, 255), 1)
     for y, guess, x in tried:
+        if not -1e5 < guess < 1e5:
+            continue
         if x is None:
             cv2.circle(out, (round(guess), y), 4, (0, 0, 255), 1)
         elif x == "filled":
@@ -193,6 +208,66 @@ def grid_image(image: np.ndarray, frame: int) -> np.ndarray:
     return out
 
 
+def check_points(anchors: dict[int, dict[str, list[tuple[int, float]]]], size: tuple[int, int]) -> None:
+    """Refuse points outside a frame of ``size`` (w, h), or not finite; a ValueError names the first."""
+    w, h = size
+    for frame, sides in anchors.items():
+        for side, pts in sides.items():
+            for y, x in pts:
+                if not (0 <= y < h and math.isfinite(x) and 0 <= x < w):
+                    raise ValueError(f"frame {frame} side {side}: the point {y}:{x:g} is outside the "
+                                     f"{w}x{h} frame (y:x, 0 <= y < {h}, 0 <= x < {w})")
+
+
+def label(a: argparse.Namespace, anchors: dict) -> list[dict]:
+    """Decode the frames named in ``anchors`` and label them (and draw the --check and --grid images)."""
+    rows_out, last = [], max(anchors)
+    for f in frames(a.video):
+        if f.index > last:
+            break
+        if f.index not in anchors:
+            continue
+        if a.grid is not None:
+            _write_image(a.grid / f"{f.index:05d}.png", grid_image(f.image, f.index))
+        rows = h_samples(f.image.shape[0])
+        ridge = ridges(f.image)
+        lines, drawn = {}, []
+        for side in ("L", "R"):
+            pts = anchors[f.index].get(side)
+            xs, tried = follow(ridge, rows, pts) if pts else ([-2.0] * len(rows), [])
+            if pts and not any(x >= 0 for x in xs):
+                print(f"label_truth: frame {f.index} side {side}: no paint found along the points; not labelled",
+                      file=sys.stderr)
+            lines[side] = xs
+            drawn += tried
+        rows_out.append({"frame": f.index, "h_samples": rows,
+                         "lanes": [xs for xs in lines.values() if any(x >= 0 for x in xs)],
+                         "left_x": lines["L"], "right_x": lines["R"]})
+        if a.check is not None:
+            _write_image(a.check / f"{f.index:05d}.png", check_image(f.image, drawn, f.index))
+    missing = sorted(set(anchors) - {r["frame"] for r in rows_out})
+    if missing:
+        raise ValueError(f"frames not in the video: {missing}")
+    return rows_out
+
+
+def _write_image(path: Path, image: np.ndarray) -> None:
+    if not cv2.imwrite(str(path), image):
+        raise OSError(f"cannot write {path}")
+
+
+def _writable_folder(folder: Path, what: str) -> None:
+    """Make the folder (and its parents), or refuse it with a ValueError before any work."""
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"{what} {folder} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"cannot make the folder {folder}: {e.strerror or e}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write in {folder}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("video", type=Path)
@@ -201,52 +276,42 @@ def main() -> int:
     ap.add_argument("--check", type=Path, help="a folder for the frames drawn with their labels")
     ap.add_argument("--grid", type=Path, help="a folder for the frames drawn with a pixel grid (to write anchors)")
     a = ap.parse_args()
-    for p in (a.video, a.anchors):
-        if not p.is_file():
-            print(f"label_truth: not found: {p}", file=sys.stderr)
-            return 2
     if a.out is None and a.grid is None:
         ap.error("give -o TRUTH.jsonl, or --grid DIR to draw the frames for writing anchors")
+    tmp = None
     try:
+        for p in (a.video, a.anchors):
+            if not p.exists():
+                raise ValueError(f"not found: {p}")
+            if not p.is_file():
+                raise ValueError(f"not a file: {p}")
         anchors = read_anchors(a.anchors)
-    except ValueError as e:
+        if not anchors:
+            raise ValueError(f"{a.anchors}: no frames listed (a line 'FRAME L|R y:x y:x ...' or 'FRAME')")
+        check_points(anchors, VideoInfo.from_path(a.video).size)
+        for folder, what in ((a.check, "--check"), (a.grid, "--grid"),
+                             (None if a.out is None else a.out.parent, "the folder of -o")):
+            if folder is not None:
+                _writable_folder(folder, what)
+        if a.out is not None and a.out.is_dir():
+            raise ValueError(f"-o {a.out} is a folder: name the file to write")
+        rows_out = label(a, anchors)
+        if a.out is not None:
+            tmp = a.out.with_name(a.out.name + ".part")
+            tmp.write_text("".join(json.dumps(r) + "\n" for r in rows_out))
+            tmp.replace(a.out)
+            tmp = None
+            seen = sum(x >= 0 for r in rows_out for x in r["left_x"] + r["right_x"])
+            print(f"wrote {a.out}: {len(rows_out)} frames, {seen} labelled points")
+    except (ValueError, LaneFinderError) as e:
         print(f"label_truth: {e}", file=sys.stderr)
         return 2
-    rows_out, last = [], max(anchors)
-    for folder in (a.check, a.grid):
-        if folder is not None:
-            folder.mkdir(parents=True, exist_ok=True)
-    for f in frames(a.video):
-        if f.index > last:
-            break
-        if f.index not in anchors:
-            continue
-        if a.grid is not None:
-            cv2.imwrite(str(a.grid / f"{f.index:05d}.png"), grid_image(f.image, f.index))
-        rows = h_samples(f.image.shape[0])
-        ridge = ridges(f.image)
-        lines, drawn = {}, []
-        for side in ("L", "R"):
-            pts = anchors[f.index].get(side)
-            xs, tried = follow(ridge, rows, pts) if pts else ([-2.0] * len(rows), [])
-            lines[side] = xs
-            drawn += tried
-        rows_out.append({"frame": f.index, "h_samples": rows,
-                         "lanes": [xs for xs in lines.values() if any(x >= 0 for x in xs)],
-                         "left_x": lines["L"], "right_x": lines["R"]})
-        if a.check is not None:
-            cv2.imwrite(str(a.check / f"{f.index:05d}.png"), check_image(f.image, drawn, f.index))
-    missing = sorted(set(anchors) - {r["frame"] for r in rows_out})
-    if missing:
-        print(f"label_truth: frames not in the video: {missing}", file=sys.stderr)
+    except OSError as e:
+        print(f"label_truth: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
         return 2
-    if a.out is not None:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = a.out.with_name(a.out.name + ".part")
-        tmp.write_text("".join(json.dumps(r) + "\n" for r in rows_out))
-        tmp.replace(a.out)
-        seen = sum(x >= 0 for r in rows_out for x in r["left_x"] + r["right_x"])
-        print(f"wrote {a.out}: {len(rows_out)} frames, {seen} labelled points")
+    finally:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
     return 0
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -31,17 +32,37 @@ from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
 from lanefinder.pipeline import LaneFinder
 from lanefinder.stats import labelled_stats
-from lanefinder.telemetry import BlownOut, h_samples, lane_row, read_telemetry
-from lanefinder.video import frames
+from lanefinder.telemetry import BlownOut, h_samples, is_number_list, lane_row, read_telemetry
+from lanefinder.video import VideoInfo, frames
 from lanefinder.videojob import process_video
 
 ROOT = Path(__file__).resolve().parents[1]
 VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
 
 
-def read_labels(path: Path) -> list[dict]:
-    """Read a labels file (JSON Lines, one labelled frame a line)."""
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+def read_labels(path: Path, height: int) -> list[dict]:
+    """Read and check a labels file for frames ``height`` rows high; a ValueError names the first bad line."""
+    rows = h_samples(height)
+    out = []
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            r = json.loads(line)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{path}:{n}: not JSON ({e.msg})") from None
+        if not (isinstance(r, dict) and isinstance(r.get("frame"), int) and r["frame"] >= 0):
+            raise ValueError(f"{path}:{n}: each line needs a frame number (a whole number, 0 or more)")
+        if r.get("h_samples") != rows:
+            raise ValueError(f"{path}:{n}: h_samples must be the TuSimple rows of a {height}-row frame "
+                             f"({rows[0]}, {rows[1]}, ..., {rows[-1]})")
+        for k in ("left_x", "right_x"):
+            if not (is_number_list(r.get(k)) and len(r[k]) == len(rows)):
+                raise ValueError(f"{path}:{n}: {k} must be {len(rows)} numbers (x per row, -2 where not labelled)")
+        out.append(r)
+    if not out:
+        raise ValueError(f"{path}: no labelled frames")
+    return out
 
 
 def tracked_rows(src: Path, cfg: Config) -> dict[int, dict]:
@@ -66,6 +87,19 @@ def still_rows(src: Path, cfg: Config, wanted: set[int]) -> dict[int, dict]:
     return out
 
 
+def score(name: str, src: Path, labels_path: Path, cfg: Config) -> dict:
+    """Score one video's tracked run and blind stills against its labels."""
+    info = VideoInfo.from_path(src)
+    labels = read_labels(labels_path, info.size[1])
+    ruler = LaneFinder().birdseye(info.size)  # the default set-up's road plane, at the video's size
+    video = tracked_rows(src, cfg)
+    beyond = sorted({int(r["frame"]) for r in labels} - set(video))
+    if beyond:
+        raise ValueError(f"{labels_path}: frames the video {src} does not have: {beyond[:10]}")
+    runs = {"video": video, "stills": still_rows(src, cfg, {int(r["frame"]) for r in labels})}
+    return {mode: labelled_stats(labels, rows, ruler) for mode, rows in runs.items()}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--videos", type=Path, default=ROOT.parent / "shared" / "data" / "udacity" / "videos")
@@ -76,35 +110,62 @@ def main() -> int:
     a = ap.parse_args()
     try:
         cfg = load_config(a.config)
-    except LaneFinderError as e:
+        if not a.videos.is_dir():
+            raise ValueError(f"the Udacity videos are not at {a.videos} (pass --videos DIR)")
+        if a.json.exists() and a.json.is_dir():
+            raise ValueError(f"--json {a.json} is a folder: name the file to write")
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        if not os.access(a.json.parent, os.W_OK | os.X_OK):
+            raise ValueError(f"cannot write in {a.json.parent}")
+    except (ValueError, LaneFinderError) as e:
         print(f"video_truth: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        print(f"video_truth: error: cannot make {a.json.parent}: {e.strerror or e}", file=sys.stderr)
+        return 2
     report: dict = {}
+    skipped = []
     print(f"{'video':<24} {'mode':<7} {'frames':>6} {'shown':>6} {'accuracy':>9} {'FP':>6} {'FN':>6} "
           f"{'off>0.5m':>9} {'not drawn':>10}")
     for name in a.only or VIDEOS:
         src, labels_path = a.videos / f"{name}.mp4", a.labels / f"{name}.jsonl"
         if not (src.is_file() and labels_path.is_file()):
             print(f"{name:<24} skipped: {src if not src.is_file() else labels_path} not found")
+            skipped.append(name)
             continue
-        labels = read_labels(labels_path)
-        be = LaneFinder().birdseye((1280, 720))  # the ruler: the default set-up's road plane
-        runs = {"video": tracked_rows(src, cfg), "stills": still_rows(src, cfg, {int(r["frame"]) for r in labels})}
-        report[name] = {}
-        for mode, rows in runs.items():
-            s = report[name][mode] = labelled_stats(labels, rows, be)
-            print(f"{name:<24} {mode:<7} {s['frames']:>6} {s['shown']:>6} {s['accuracy']:>9.4f} {s['fp']:>6.3f} "
-                  f"{s['fn']:>6.3f} {len(s['off_frames']):>9} {s['lines_not_drawn']:>10}", flush=True)
+        try:
+            report[name] = score(name, src, labels_path, cfg)
+        except (ValueError, LaneFinderError) as e:
+            print(f"video_truth: error: {e}", file=sys.stderr)
+            return 2
+        for mode, st in report[name].items():
+            acc = "n/a" if st["accuracy"] is None else f"{st['accuracy']:.4f}"
+            print(f"{name:<24} {mode:<7} {st['frames']:>6} {st['shown']:>6} {acc:>9} {st['fp']:>6.3f} "
+                  f"{st['fn']:>6.3f} {len(st['off_frames']):>9} {st['lines_not_drawn']:>10}", flush=True)
     print()
     for name, modes in report.items():
-        for mode, s in modes.items():
+        for mode, st in modes.items():
             worst = {r["frame"]: max(v for v in (r["left_m"], r["right_m"]) if v is not None)
-                     for r in s["per_frame"] if r["frame"] in s["off_frames"]}
+                     for r in st["per_frame"] if r["frame"] in st["off_frames"]}
             listed = ", ".join(f"{f} ({m:.2f} m)" for f, m in worst.items()) or "none"
             print(f"{name} {mode}: a line more than 0.5 m off at frames {listed}")
-    a.json.parent.mkdir(parents=True, exist_ok=True)
-    a.json.write_text(json.dumps(report, indent=2) + "\n")
+    if not report:
+        print(f"video_truth: error: nothing scored: {', '.join(skipped)} (a video or its labels not found)",
+              file=sys.stderr)
+        return 2
+    tmp = a.json.with_name(a.json.name + ".part")
+    try:
+        tmp.write_text(json.dumps(report, indent=2) + "\n")
+        tmp.replace(a.json)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        print(f"video_truth: error: cannot write {a.json}: {e.strerror or e}", file=sys.stderr)
+        return 2
     print(f"\nreport: {a.json}")
+    if a.only and skipped:
+        print(f"video_truth: error: not scored: {', '.join(skipped)} (a video or its labels not found)",
+              file=sys.stderr)
+        return 2
     return 0
 
 

@@ -131,7 +131,10 @@ def test_label_truth_places_rough_points_on_the_paint(tmp_path):
                                                ("1 X 680:362 560:432\n", "a side L or R"),
                                                ("1 L 680-362 560:432\n", "expected 'FRAME L|R y:x"),
                                                ("1 L 680:362 560:432\n1 L 680:362 560:432\n", "given twice"),
-                                               ("9 L 680:362 560:432\n", "frames not in the video: [9]")])
+                                               ("9 L 680:362 560:432\n", "frames not in the video: [9]"),
+                                               ("# only a comment\n", "no frames listed"),
+                                               ("1 L 680:nan 560:432\n", "expected 'FRAME L|R y:x"),
+                                               ("1 L 680:2000 560:432\n", "outside the 1280x720 frame")])
 def test_label_truth_refuses_bad_points_with_one_line(tmp_path, anchors, says):
     clip = tmp_path / "clip.mp4"
     _label_clip(clip)
@@ -140,3 +143,34 @@ def test_label_truth_refuses_bad_points_with_one_line(tmp_path, anchors, says):
     assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "t.jsonl").exists()
+
+
+@pytest.mark.slow  # reads a clip (and runs it where the labels pass)
+@pytest.mark.parametrize(("labels", "says"), [
+    ("", "no labelled frames"),
+    ("{nope\n", "not JSON"),
+    ('{"frame": 3}\n', "h_samples must be the TuSimple rows of a 720-row frame"),
+    ('{"frame": 3, "h_samples": ROWS, "left_x": [1, 2]}\n', "left_x must be 32 numbers"),
+    ('{"frame": 500, "h_samples": ROWS, "left_x": XS, "right_x": XS}\n', "frames the video"),
+])
+def test_video_truth_refuses_bad_labels_with_one_line(tmp_path, labels, says):
+    import json
+
+    (tmp_path / "videos").mkdir()
+    (tmp_path / "labels").mkdir()
+    (tmp_path / "videos" / "harder_challenge_video.mp4").symlink_to(ROOT / "data" / "clips" /
+                                                                    "harder_challenge_0-4s.mp4")
+    rows = list(range(400, 720, 10))
+    labels = labels.replace("ROWS", json.dumps(rows)).replace("XS", json.dumps([300.0] * 32))
+    (tmp_path / "labels" / "harder_challenge_video.jsonl").write_text(labels)
+    p = run_script(ROOT / "scripts" / "video_truth.py", "--only", "harder_challenge_video", "--videos",
+                   tmp_path / "videos", "--labels", tmp_path / "labels", "--json", tmp_path / "r.json")
+    assert p.returncode == 2 and says in p.stderr and "Traceback" not in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_video_truth_refuses_a_missing_videos_folder(tmp_path):
+    p = run_script(ROOT / "scripts" / "video_truth.py", "--videos", tmp_path / "nope", "--json", tmp_path / "r.json")
+    assert p.returncode == 2 and "the Udacity videos are not at" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "r.json").exists()

@@ -762,7 +762,8 @@ class TrackingConfig(_Section):
         A measured line whose nearest paint lies further ahead than this (m: a dash gap beside
         the car, paint hidden near it) is extrapolated at the car: it may move the tracked line
         there by at most ``start_free_m`` a frame, and the rest of that move is held back (its
-        heading and bend are taken as measured; 0: off).
+        heading and bend are taken as measured; 0: off).  A lane found afresh, and a line seen
+        again after it was inferred, are taken as measured.
     start_free_m : float
         How far such a measurement may move the line at the car in one frame, m (at
         ``reference_fps``).

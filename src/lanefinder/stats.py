@@ -240,13 +240,14 @@ def labelled_stats(labels: list[dict], rows: dict[int, dict], be, limit_m: float
     ----------
     labels : list of dict
         Labelled frames (``data/truth/*.jsonl``, made by ``scripts/label_truth.py``): ``frame``,
-        ``h_samples`` and ``left_x``/``right_x``, the car's lane's lines where their paint is
-        seen (negative elsewhere).
+        ``h_samples`` and ``left_x``/``right_x``, the car's lane's lines where they are labelled
+        (negative elsewhere); these are the lines scored (a file's ``lanes`` holds the same).
     rows : dict of int to dict
         Telemetry rows (``state``, ``left_x``, ``right_x`` on the same rows) by frame; a
         labelled frame without a row counts as showing no lane.
     be : BirdsEye
-        The set-up whose road plane measures distances (:func:`lanefinder.evaluate.road_errors_m`).
+        The set-up whose road plane measures distances (:func:`lanefinder.evaluate.road_errors_m`),
+        for frames of the labels' size.
     limit_m : float
         A drawn line further than this from its marking on the road, at any labelled row, is off.
 
@@ -254,10 +255,11 @@ def labelled_stats(labels: list[dict], rows: dict[int, dict], be, limit_m: float
     -------
     dict
         ``frames``; ``shown`` (frames with a lane); ``accuracy``, ``fp``, ``fn`` (TuSimple, as
-        ``lanefinder eval``: :func:`lanefinder.evaluate.evaluate`); ``off_frames`` (frames with a
-        line off, in order); ``lines_off`` and ``lines_not_drawn`` (labelled lines drawn off, and
-        not drawn while the frame shows a lane); ``per_frame``: ``frame``, ``state``, and per side
-        the largest distance, m (None: the line is not both labelled and drawn).
+        ``lanefinder eval``: :func:`lanefinder.evaluate.evaluate`; ``accuracy`` None when no frame
+        has a labelled line); ``off_frames`` (frames with a line off, in order); ``lines_off``
+        and ``lines_not_drawn`` (labelled lines drawn off, and not drawn at all while the frame
+        shows a lane); ``per_frame``: ``frame``, ``state``, and per side the largest distance, m
+        (None: no row where the line is both labelled and drawn, within range).
 
     Examples
     --------
@@ -294,11 +296,13 @@ def labelled_stats(labels: list[dict], rows: dict[int, dict], be, limit_m: float
             if worst is not None and worst > limit_m:
                 lines_off += 1
                 bad = True
-            elif lane and worst is None and (truth[side] >= 0).any():
+            elif lane and (truth[side] >= 0).any() and not (drawn[side] >= 0).any():
                 not_drawn += 1
         if bad:
             off.append(f)
         per_frame.append(record)
     rep = evaluate(gt, pred)
-    return {"frames": len(labels), "shown": shown, "accuracy": rep.accuracy, "fp": rep.fp, "fn": rep.fn,
+    with_line = any(g["lanes"] for g in gt.values())
+    return {"frames": len(labels), "shown": shown, "accuracy": rep.accuracy if with_line else None,
+            "fp": rep.fp, "fn": rep.fn,
             "off_frames": off, "lines_off": lines_off, "lines_not_drawn": not_drawn, "per_frame": per_frame}

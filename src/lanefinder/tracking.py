@@ -273,7 +273,8 @@ def _lines(fits: tuple[Fit | None, Fit | None], found: tuple[bool, bool], conf: 
         out.append(Line(
             fit_px=None if fit is None else m_to_px(fit, rules.scale), fit_m=None if fit is None else fit.copy(),
             confidence=c, found=ok, inferred=shown and not ok, n_pixels=m.n_pixels if m is not None else 0,
-            range_m=m.range_m if ok and m is not None else math.nan))
+            range_m=m.range_m if ok and m is not None else math.nan,
+            start_m=m.start_m if ok and m is not None else math.nan))
     return out[0], out[1]
 
 
@@ -531,8 +532,9 @@ def _commit(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[floa
             start_m: tuple[float, float] = (math.nan, math.nan)) -> Track:
     """Rule 6: smooth the fits into the track (a line seen again after being guessed snaps to it).
 
-    A measured line whose nearest paint is ``tracking.start_gap_m`` or more ahead (``start_m``)
-    moves the line at the car by ``tracking.start_free_m`` at most before smoothing.
+    A measured line whose nearest paint is more than ``tracking.start_gap_m`` ahead (``start_m``)
+    moves the line at the car by ``tracking.start_free_m`` at most before smoothing (not on a
+    fresh start, nor when a guessed line is seen again: those snap to the measurement).
     """
     c = rules.cfg
     fresh = track.needs_blind_search(c)
