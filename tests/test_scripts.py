@@ -77,8 +77,9 @@ def test_selfcal_frames_keeps_the_project_clips_set_up():
     assert "(+0.0 px), 0 changes" in p.stdout
 
 
-def _label_clip(path: Path):
-    """Write a 3-frame 720p clip: a solid line x = 760 - 0.6 y (rows 440-719), a dashed one x = 700 + 0.5 y.
+def _label_clip(path: Path, k: float = 1.0):
+    """Write a 3-frame clip at 1280x720 times ``k``: a solid line x = 760 - 0.6 y (rows 440-719), a
+    dashed one x = 700 + 0.5 y (720-row pixels, scaled by ``k``).
 
     The dashed line has a gap on rows 555-625; the hood (rows 686 and below) is dark.
     """
@@ -89,13 +90,18 @@ def _label_clip(path: Path):
 
     from lanefinder.video import VideoInfo, VideoSink
 
-    img = np.full((720, 1280, 3), 90, np.uint8)
-    for y in range(440, 686):
-        cv2.line(img, (round(760 - 0.6 * y) - 6, y), (round(760 - 0.6 * y) + 6, y), (235, 235, 235), 1)
+    w, h = round(1280 * k), round(720 * k)
+    img = np.full((h, w, 3), 90, np.uint8)
+    half = max(2, round(6 * k))
+    for yy in range(round(440 * k), round(686 * k)):
+        y = yy / k
+        cv2.line(img, (round(k * (760 - 0.6 * y)) - half, yy), (round(k * (760 - 0.6 * y)) + half, yy),
+                 (235, 235, 235), 1)
         if not 555 <= y <= 625:
-            cv2.line(img, (round(700 + 0.5 * y) - 6, y), (round(700 + 0.5 * y) + 6, y), (235, 235, 235), 1)
-    img[686:] = 30
-    info = VideoInfo(width=1280, height=720, fps=Fraction(25), total_frames=3, duration_s=0.12, codec="h264")
+            cv2.line(img, (round(k * (700 + 0.5 * y)) - half, yy), (round(k * (700 + 0.5 * y)) + half, yy),
+                     (235, 235, 235), 1)
+    img[round(686 * k):] = 30
+    info = VideoInfo(width=w, height=h, fps=Fraction(25), total_frames=3, duration_s=0.12, codec="h264")
     with VideoSink(path, info) as sink:
         for _ in range(3):
             sink.write(img)
@@ -124,6 +130,23 @@ def test_label_truth_places_rough_points_on_the_paint(tmp_path):
     assert abs(left[710] - (760 - 0.6 * 710)) < 1.5  # under the hood, straight on
     assert rows[1]["lanes"] == [] and set(rows[1]["left_x"]) == {-2.0}  # a frame with no line seen
     assert sorted(q.name for q in (tmp_path / "check").iterdir()) == ["00001.png", "00002.png"]
+
+
+@pytest.mark.slow  # writes and reads a video
+def test_label_truth_scales_with_the_frame(tmp_path):
+    # At 640x360 the window, the ridge's reach and the hood row scale: the same lines, the same labels / 2.
+    import json
+
+    clip = tmp_path / "clip.mp4"
+    _label_clip(clip, 0.5)
+    (tmp_path / "a.txt").write_text("1 L 340:181 280:216 225:249\n")
+    p = run_script(ROOT / "scripts" / "label_truth.py", clip, tmp_path / "a.txt", "-o", tmp_path / "t.jsonl")
+    assert p.returncode == 0, p.stderr
+    row = json.loads((tmp_path / "t.jsonl").read_text())
+    left = dict(zip(row["h_samples"], row["left_x"], strict=True))
+    for y in range(225, 356, 5):  # on the paint within 1 px, and under the hood (from row 343) straight on
+        assert abs(left[y] - 0.5 * (760 - 0.6 * 2 * y)) < 1.0, (y, left[y])
+    assert left[220] == -2
 
 
 @pytest.mark.slow  # writes a video
