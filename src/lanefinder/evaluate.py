@@ -21,10 +21,14 @@ import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import LaneFinderError
+
+if TYPE_CHECKING:
+    from .birdseye import BirdsEye
 from .io import iter_json_lines
 from .telemetry import MAX_ABS_VALUE, is_number, is_number_list, read_telemetry
 
@@ -698,7 +702,7 @@ def setup_error(estimate, truth) -> dict[str, float]:
             "car_m": float(x_e[2])}
 
 
-def road_errors_m(be, h_samples: list[int] | np.ndarray, truth_x: list[float] | np.ndarray,
+def road_errors_m(be: BirdsEye, h_samples: list[int] | np.ndarray, truth_x: list[float] | np.ndarray,
                   drawn_x: list[float] | np.ndarray, max_range_m: float = 150.0) -> np.ndarray:
     """Measure how far a drawn line lies from its labelled marking on the road, row by row.
 

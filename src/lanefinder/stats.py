@@ -7,11 +7,14 @@ videos to.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import LaneFinderError
+
+if TYPE_CHECKING:
+    from .birdseye import BirdsEye
 
 __all__ = [
     "check_counts",
@@ -233,7 +236,7 @@ def lane_shares(states: list[str | None], widths: list[float | None]) -> dict[st
             "mean_width_m": round(sum(known) / len(known), 4) if known else None}
 
 
-def labelled_stats(labels: list[dict], rows: dict[int, dict], be, limit_m: float = 0.5) -> dict[str, Any]:
+def labelled_stats(labels: list[dict], rows: dict[int, dict], be: BirdsEye, limit_m: float = 0.5) -> dict[str, Any]:
     """Judge a run's rows (or blind stills') against hand labels of its frames.
 
     Parameters
