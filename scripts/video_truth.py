@@ -25,16 +25,17 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
 from lanefinder.pipeline import LaneFinder
 from lanefinder.stats import labelled_stats
-from lanefinder.telemetry import BlownOut, h_samples, is_number_list, lane_row, read_telemetry
+from lanefinder.telemetry import h_samples, is_number_list
 from lanefinder.video import VideoInfo, frames
-from lanefinder.videojob import process_video
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling scripts, also when loaded from a file
+from stills_vs_video import still_row, tracked
 
 ROOT = Path(__file__).resolve().parents[1]
 VIDEOS = ("project_video", "challenge_video", "harder_challenge_video")
@@ -65,14 +66,6 @@ def read_labels(path: Path, height: int) -> list[dict]:
     return out
 
 
-def tracked_rows(src: Path, cfg: Config) -> dict[int, dict]:
-    """Run the video with tracking, telemetry only; give its rows by frame."""
-    with tempfile.TemporaryDirectory() as tmp:
-        tele = Path(tmp) / "t.jsonl"
-        process_video(src, None, cfg, telemetry=tele, progress=False)
-        return {r["frame"]: r for r in read_telemetry(tele)}
-
-
 def still_rows(src: Path, cfg: Config, wanted: set[int]) -> dict[int, dict]:
     """Find each wanted frame alone and blind, as `lanefinder image` does; give the rows by frame."""
     finder, out = LaneFinder(cfg), {}
@@ -81,18 +74,16 @@ def still_rows(src: Path, cfg: Config, wanted: set[int]) -> dict[int, dict]:
         if f.index > last:
             break
         if f.index in wanted:
-            result = finder.process_still(f.image)
-            size = (f.image.shape[1], f.image.shape[0])
-            out[f.index] = lane_row(result, finder.birdseye(size), blown=BlownOut.of(f.image, h_samples(size[1])))
+            out[f.index] = still_row(finder, f.image)[1]
     return out
 
 
-def score(name: str, src: Path, labels_path: Path, cfg: Config) -> dict:
+def score(src: Path, labels_path: Path, cfg: Config) -> dict:
     """Score one video's tracked run and blind stills against its labels."""
     info = VideoInfo.from_path(src)
     labels = read_labels(labels_path, info.size[1])
     ruler = LaneFinder().birdseye(info.size)  # the default set-up's road plane, at the video's size
-    video = tracked_rows(src, cfg)
+    video = tracked(src, cfg)
     beyond = sorted({int(r["frame"]) for r in labels} - set(video))
     if beyond:
         raise ValueError(f"{labels_path}: frames the video {src} does not have: {beyond[:10]}")
@@ -134,7 +125,7 @@ def main() -> int:
             skipped.append(name)
             continue
         try:
-            report[name] = score(name, src, labels_path, cfg)
+            report[name] = score(src, labels_path, cfg)
         except (ValueError, LaneFinderError) as e:
             print(f"video_truth: error: {e}", file=sys.stderr)
             return 2
