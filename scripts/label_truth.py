@@ -236,8 +236,8 @@ def label(a: argparse.Namespace, anchors: dict) -> list[dict]:
             pts = anchors[f.index].get(side)
             xs, tried = follow(ridge, rows, pts) if pts else ([-2.0] * len(rows), [])
             if pts and not any(x >= 0 for x in xs):
-                print(f"label_truth: frame {f.index} side {side}: no paint found along the points; not labelled",
-                      file=sys.stderr)
+                print(f"label_truth: warning: frame {f.index} side {side}: no paint found along the points; "
+                      "not labelled", file=sys.stderr)
             lines[side] = xs
             drawn += tried
         rows_out.append({"frame": f.index, "h_samples": rows,
@@ -304,10 +304,10 @@ def main() -> int:
             seen = sum(x >= 0 for r in rows_out for x in r["left_x"] + r["right_x"])
             print(f"wrote {a.out}: {len(rows_out)} frames, {seen} labelled points")
     except (ValueError, LaneFinderError) as e:
-        print(f"label_truth: {e}", file=sys.stderr)
+        print(f"label_truth: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:
-        print(f"label_truth: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
+        print(f"label_truth: error: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
         return 2
     finally:
         if tmp is not None:
