@@ -341,7 +341,7 @@ def plot(telemetry: str, output: str) -> None:
 @main.command()
 @click.option("--scenario", default="straight", show_default=True,
               help="straight, curve, shadows, pavement, glare, worn, double-yellow, curve-entry, sharp-curve, "
-                   "lane-change, drift, hills, night (see --list).")
+                   "lane-change, drift, hills, winding, night (see --list).")
 @click.option("--frames", "n_frames", type=click.IntRange(1, 100000), default=100, show_default=True)
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True)
 @click.option("--camera", "camera_path", type=click.Path(), help="Camera file (default: the Udacity camera).")

@@ -660,6 +660,12 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in [
              offset_m=(0.1, 0.2), conditions=Conditions(roadside=True),
              description="crests and sags (vertical radius 900 m) on a winding two-lane road (R 450 m), a cluttered "
                          "verge"),
+    # Curvature that changes along the view, as on real winding roads (a bend tightening or opening,
+    # an S-bend): the lines are cubics, which a second-order fit in the view can only approach.
+    Scenario("winding", speed_mps=15.0, curvature=(0.0, 1 / 250), curvature_rate=(0.0, 1.5e-4), offset_m=(0.05, 0.15),
+             width_m=(3.5, 0.1), period_s=7.0,
+             description="winding road: curvature changing along the view (S-bends, bends tightening and "
+                         "opening), R down to about 130 m within 40 m ahead"),
     Scenario("night", curvature=(1 / 1200, 1 / 3000), conditions=Conditions(night=True),
              description="night: the car's low beams and a little ambient light, paint shining back in the beams, "
                          "tail lights, sensor noise"),
