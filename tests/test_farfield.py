@@ -68,6 +68,21 @@ def test_scattered_texture_along_the_extension_is_no_far_part(farview):
     assert follow_line(_marking(fv, lambda d: True), fv, FIT, xm, FarConfig()) is not None  # paint is kept
 
 
+def test_a_marking_whose_bend_changes_along_the_road_is_no_texture(farview):
+    # A bend that tightens beyond the view: the marking leaves the near fit's extension as a cubic,
+    # 7 m to the side 96 m ahead. Its rows lie 0.16 m (median) from the correction's parabola,
+    # beyond far.max_scatter_m, but on a cubic: paint, kept (it was dropped as texture before).
+    fv, xm = farview
+    s_max = float(-fv.v_px.min())
+    binary = np.zeros((len(fv.v_px), fv.width), np.uint8)
+    for k, v in enumerate(fv.v_px):
+        col = round(float(poly_x(FIT, v)) - fv.u0_px + 7.0 / xm * (-v / s_max) ** 3)
+        binary[k, col - 2:col + 3] = 1
+    far = follow_line(binary, fv, FIT, xm, FarConfig())
+    assert far is not None and far.range_m > 90
+    off_m = (float(poly_x(far.fit_px, far.end_px) - poly_x(FIT, far.end_px)) * xm)
+    assert abs(off_m - 7.0 * (-far.end_px / s_max) ** 3) < 1.0  # the far part's end, on the marking within 1 m
+
 
 def test_the_far_view_ends_where_the_frame_no_longer_resolves_a_marking():
     # A metre across the road must span far.min_px_per_m (8) frame pixels: at 1280x720 the

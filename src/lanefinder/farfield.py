@@ -17,7 +17,8 @@ taken as found on the near fit's extension ``far.anchor_m`` beyond the top edge 
 pixel in the first far rows, where a small offset is a steep slope, does not steer the search
 off the line), and the line's far part is the near fit plus that correction, as far as the
 farthest marking found.  A far part whose rows scatter about that curve by more than
-``far.max_scatter_m`` is texture, not paint, and is dropped.  The near fit, and so the lane
+``far.max_scatter_m`` is texture, not paint, and is dropped (unless they lie that close to a
+cubic: a bend that changes along the road).  The near fit, and so the lane
 numbers at the car, are not changed.
 """
 
@@ -307,7 +308,8 @@ def follow_line(far_binary: np.ndarray, fv: FarView, fit_px: np.ndarray, xm_per_
     if len(found_s) < cfg.min_rows:
         return None
     c1, c2, residuals = _fit_correction(found_s, found_r, anchor_s)
-    if cfg.max_scatter_m > 0 and statistics.median(residuals) * xm_per_px > cfg.max_scatter_m:
+    if cfg.max_scatter_m > 0 and statistics.median(residuals) * xm_per_px > cfg.max_scatter_m and \
+            statistics.median(_smooth_residuals(found_s, found_r, anchor_s)) * xm_per_px > cfg.max_scatter_m:
         return None
     a, b, c = (float(v) for v in fit_px)
     far_fit = np.array([a + c2, b - c1, c])  # x(v) + c1*s + c2*s^2 with s = -v (bird's-eye x)
@@ -389,6 +391,21 @@ def _fit_correction(s: list[float], r: list[float], anchor_s: float = 0.0) -> tu
         limit = 3 * (statistics.median(res[i] for i in keep) + 0.5)
         keep = [i for i, e in enumerate(res) if e <= limit]
     return c1, c2, res
+
+
+def _smooth_residuals(s: list[float], r: list[float], anchor_s: float) -> np.ndarray:
+    """Give each point's distance from the least-squares r = c1*s + c2*s^2 + c3*s^3 (with the anchor row).
+
+    A marking on a road whose bend changes along the view (a cubic, as seen from the near
+    fit) is smooth but strays from the correction's parabola far ahead; texture scatters about
+    any smooth curve.  (One more degree of freedom than the correction.)
+    """
+    sa = np.asarray([*s, anchor_s], np.float64) if anchor_s > 0 else np.asarray(s, np.float64)
+    ra = np.asarray([*r, 0.0], np.float64) if anchor_s > 0 else np.asarray(r, np.float64)
+    scale = float(sa.max()) or 1.0
+    t = sa / scale
+    coef = np.linalg.lstsq(np.column_stack([t, t * t, t * t * t]), ra, rcond=None)[0]
+    return np.abs(np.column_stack([t, t * t, t * t * t]) @ coef - ra)[: len(s)]
 
 
 def far_rows(end_px: float, n: int) -> np.ndarray:
