@@ -887,13 +887,15 @@ class FarConfig(_Section):
         off the line.
     max_scatter_m : float
         A far part whose rows lie further from its fitted curve than this (median), m, is no
-        marking but texture (leaves, gravel, a verge) and is dropped (0: kept), unless they
-        lie as close to a cubic (a bend that tightens or opens along the road strays from
-        the fitted parabola far ahead, smoothly; texture scatters about any smooth curve).
-        Measured: on the project video half the far parts scatter under 0.03 m and nine in
-        ten under 0.08 m; on the harder challenge video's verges and bushes half scatter over
-        0.1 m.  The cubic keeps 36 of the 42 far parts over the limit on the project video,
-        124 of 252 on the challenge video and 184 of 476 on the harder challenge video.
+        marking but texture (leaves, gravel, a verge) and is dropped (0: kept), unless at
+        least 8 of them lie as close to a cubic, which takes at least half the scatter away
+        (a bend that tightens or opens along the road strays from the fitted parabola far
+        ahead, smoothly; texture scatters about any smooth curve: see
+        :data:`lanefinder.farfield.SMOOTH_MIN_ROWS`).  Measured: on the project video half
+        the far parts scatter under 0.03 m and nine in ten under 0.08 m; on the harder
+        challenge video's verges and bushes half scatter over 0.1 m.  The cubic keeps 9 of
+        the 42 far parts over the limit on the project video, 35 of 252 on the challenge
+        video and 42 of 476 on the harder challenge video.
     min_px_per_m : float
         The far view ends where a metre across the road spans fewer frame pixels than this
         (0: at ``max_range_m`` only): beyond, a marking is narrower than about a pixel and
