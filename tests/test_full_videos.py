@@ -83,8 +83,8 @@ def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):
     assert all(r["state"] == "re-detect" for r in leaps), [(r["time_s"], r["state"]) for r in leaps]
     assert len(leaps) <= 3
     # Against the 43 hand-labelled frames (the 40-frame contact sheet and three in the hairpin), the lane
-    # shown is often wrong: measured accuracy 0.7184, a lane on 41, a line more than 0.5 m off its
-    # marking on 23 (issue 12 asks for none on the sheet).
+    # shown is often wrong: measured accuracy 0.7177 (0.7184 before the far field's cubic test), a lane on 41,
+    # a line more than 0.5 m off its marking on 23 (issue 12 asks for none on the sheet).
     lab = _labelled("harder_challenge_video", rows)
     assert lab["accuracy"] > 0.70 and len(lab["off_frames"]) <= 23
 
