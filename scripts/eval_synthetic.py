@@ -149,5 +149,14 @@ def main() -> int:
     return 0
 
 
+def cli() -> int:
+    """Run :func:`main`; a refusal (a config that does not load, an output folder that cannot be made) is one line."""
+    try:
+        return main()
+    except LaneFinderError as e:
+        print(f"eval_synthetic: error: {e}", file=sys.stderr)
+        return 2
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(cli())

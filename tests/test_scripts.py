@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
     (["--lens-hfov", "90", "--size", "10x10"], "--size must be WxH"),
     (["--size", "640x"], "--size must be WxH"),
     (["--frames", "0"], "--frames must be at least 1"),
+    (["--config", "nosuch.toml"], "eval_synthetic: error: config file not found: nosuch.toml"),
 ])
 def test_eval_synthetic_refuses_a_lens_it_cannot_render(tmp_path, args, says):
     p = run_script(ROOT / "scripts" / "eval_synthetic.py", "--out", str(tmp_path), *args, timeout=60)
