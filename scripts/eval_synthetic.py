@@ -1,7 +1,7 @@
 """Measure lanefinder against synthetic ground truth, scenario by scenario (`make eval`).
 
     python scripts/eval_synthetic.py [--frames 50] [--seeds 101 102] [--out output/eval] [--only NAME ...]
-                                     [--fixed] [--config CFG] [--reuse] [--self-calibrate]
+                                     [--fixed] [--same-road] [--config CFG] [--reuse] [--self-calibrate]
                                      [--lens-hfov DEG --size WxH]
 
 For each scenario and seed: render the sequence (lanefinder.synth), run the video job with the
@@ -14,6 +14,10 @@ accuracy by distance band (0-20, 20-40, 40-70, 70+ m ahead), the lateral error o
 Each sequence's look (asphalt or concrete, light, paint, dash pattern, what bounds the lane,
 clutter, vehicles), lane width and camera mount (height 1.1-1.6 m, pitch, yaw) are drawn from
 its seed (`lanefinder synth --randomise`); `--fixed` renders each scenario's fixed look instead.
+So is where in the scenario's cycle of geometry (`period_s`) the sequence starts
+(`synth.road_start_s`): each seed drives its own stretch of road. `--same-road` starts every seed
+at the cycle's beginning, as every figure before 2026-11-27 did (the seeds then differed in look
+and camera, not in the road's shape: 50 frames show the first 2 s of each cycle).
 Seeds: tuning uses seeds 0-2 (`make eval-tune`); `make eval` reports seeds 101 and 102, which no
 tuning has used. The truth runs as far as each marking is visible (its farthest paint at least 1.5 px wide) and
 leaves out paint hidden behind a vehicle.
@@ -64,21 +68,23 @@ def _same_lens(folder: Path, camera: CameraModel | None) -> bool:
 
 
 def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool,
-             camera: CameraModel | None = None) -> Path:
+             camera: CameraModel | None = None, road_from_seed: bool = False) -> Path:
     """Render a sequence, or keep the one in ``folder`` when it was made the same way."""
     meta = folder / "scenario.json"
     if reuse and meta.is_file() and (folder / "gt.jsonl").is_file() and _same_lens(folder, camera):
         m = json.loads(meta.read_text())
-        if m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise:
+        if m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise \
+                and ("start_s" in m) == road_from_seed:
             return folder
-    return write_sequence(name, frames, folder, seed, camera=camera, randomise=randomise)
+    return write_sequence(name, frames, folder, seed, camera=camera, randomise=randomise,
+                          road_from_seed=road_from_seed)
 
 
 def run(name: str, frames: int, seeds: list[int], out: Path, base: Config, randomise: bool = True,
-        reuse: bool = False, own_setup: bool = True, camera: CameraModel | None = None):
+        reuse: bool = False, own_setup: bool = True, camera: CameraModel | None = None, road_from_seed: bool = False):
     gt, pred = {}, {}
     for seed in seeds:
-        folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse, camera)
+        folder = sequence(name, frames, seed, out / f"{name}-{seed}", randomise, reuse, camera, road_from_seed)
         own = load_config(folder / "config.toml")
         # With the exact set-up, or (own_setup False) with the camera's lens only, as a user with an
         # unknown mount runs `lanefinder video`: the default set-up, then self-calibration.
@@ -101,6 +107,9 @@ def main() -> int:
                     help="the fixed look and camera mount of each scenario instead of a look drawn from the seed")
     ap.add_argument("--config", type=Path, help="pipeline settings (the sequences' camera and set-up still apply)")
     ap.add_argument("--reuse", action="store_true", help="keep sequences already rendered under --out")
+    ap.add_argument("--same-road", action="store_true",
+                    help="every seed on the same stretch of road, the first seconds of each scenario's cycle "
+                         "(as before 2026-11-27); by default each seed starts at its own point of the cycle")
     ap.add_argument("--self-calibrate", action="store_true",
                     help="run without each sequence's set-up (its lens only): the default set-up and self-calibration")
     ap.add_argument("--lens-hfov", type=float, help="an ideal lens of this horizontal field of view, degrees")
@@ -127,7 +136,8 @@ def main() -> int:
     results = {}
     for name in a.only or SCENARIOS:
         results[name] = run(name, a.frames, a.seeds, a.out, base, randomise=not a.fixed, reuse=a.reuse,
-                            own_setup=not a.self_calibrate, camera=camera)
+                            own_setup=not a.self_calibrate, camera=camera,
+                            road_from_seed=not (a.fixed or a.same_road))
         head, row = results[name].table(name).split("\n")
         if len(results) == 1:
             print(head)
@@ -139,7 +149,8 @@ def main() -> int:
     report = a.out / ("report_selfcal.json" if a.self_calibrate else "report.json")
     report.write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
-    look = "fixed look" if a.fixed else "look and camera drawn from each seed"
+    look = "fixed look" if a.fixed else "look, camera and stretch of road drawn from each seed" if not a.same_road \
+        else "look and camera drawn from each seed, the same stretch of road"
     if a.lens_hfov is not None:
         look += f", an ideal {a.lens_hfov:g}-degree lens at {size[0]}x{size[1]}"
     elif camera is not None:

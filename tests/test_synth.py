@@ -21,6 +21,7 @@ from lanefinder.synth import (
     NightLight,
     Renderer,
     Vehicle,
+    road_start_s,
     write_sequence,
 )
 from lanefinder.telemetry import make_row
@@ -342,3 +343,25 @@ def test_the_renderers_remainder_is_numpys():
         assert np.array_equal(_remainder_below(u, period, limit), np.fmod(u, period) < limit)
     with pytest.raises(TypeError):
         _remainder(a.astype(np.float64), 3.7)
+
+
+def test_each_seed_can_drive_its_own_stretch_of_road(tmp_path):
+    import json
+
+    # Without it, every seed drives the first seconds of the scenario's cycle (the same road, looks apart).
+    camera = udacity_camera().scaled_to((320, 180))
+    winding = SCENARIOS["winding"]
+    starts = {road_start_s(winding, seed) for seed in range(20)}
+    assert len(starts) == 20 and all(0 <= x < winding.period_s for x in starts)
+    later = Renderer(camera, Mount(), winding, start_s=2.5).geometry(0.0)
+    same = Renderer(camera, Mount(), winding).geometry(2.5)
+    for key in ("curvature", "curvature_rate", "heading", "offset", "width"):
+        assert later[key] == pytest.approx(same[key])
+    assert later["travelled"] == 0.0  # the road's texture keeps its own clock
+    folder = write_sequence("winding", 1, tmp_path / "w", seed=3, camera=camera, randomise=True, road_from_seed=True)
+    meta = json.loads((folder / "scenario.json").read_text())
+    assert meta["start_s"] == pytest.approx(road_start_s(winding, 3))
+    plain = write_sequence("winding", 1, tmp_path / "p", seed=3, camera=camera, randomise=True)
+    assert "start_s" not in json.loads((plain / "scenario.json").read_text())
+    truth = [json.loads((f / "gt.jsonl").read_text().splitlines()[0])["curvature_per_m"] for f in (folder, plain)]
+    assert truth[0] != pytest.approx(truth[1])

@@ -354,8 +354,12 @@ def plot(telemetry: str, output: str) -> None:
 @click.option("--randomise", is_flag=True,
               help="Draw the road's look (surface, light, paint, dashes, clutter, vehicles), the lane width and "
                    "the camera mount (height 1.1-1.6 m, pitch, yaw) from the seed.")
+@click.option("--road-from-seed", is_flag=True,
+              help="Start at a point of the scenario's cycle of geometry drawn from the seed (as `make eval` does); "
+                   "without it the sequence drives the cycle's first seconds.")
 def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, height_m: float | None,
-          pitch_deg: float | None, outdir: str, list_only: bool, quiet: bool, randomise: bool) -> None:
+          pitch_deg: float | None, outdir: str, list_only: bool, quiet: bool, randomise: bool,
+          road_from_seed: bool) -> None:
     """Render a synthetic dashcam sequence with exact ground truth.
 
     Writes video.mp4, gt.jsonl (per frame: curvature, radius, offset, width, TuSimple lanes),
@@ -376,7 +380,8 @@ def synth(scenario: str, n_frames: int, seed: int, camera_path: str | None, heig
         mount = replace(mount, height_m=height_m if height_m is not None else mount.height_m,
                         pitch_deg=pitch_deg if pitch_deg is not None else mount.pitch_deg)
     cam = load_camera(camera_path) if camera_path else None
-    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet, randomise=randomise)
+    out = write_sequence(scenario, n_frames, outdir, seed, cam, mount, progress=not quiet, randomise=randomise,
+                         road_from_seed=road_from_seed)
     click.echo(f"wrote {out}/video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json")
 
 

@@ -61,6 +61,7 @@ __all__ = [
     "check_render_memory",
     "level_to_camera",
     "manoeuvre_shift",
+    "road_start_s",
     "write_sequence",
 ]
 
@@ -916,6 +917,9 @@ class Renderer:
     appearance : Appearance, optional
         The road's look (default: the fixed look); its ``mount`` and ``lane_width_m`` are not
         used here (see :func:`write_sequence`).
+    start_s : float, optional
+        Where in the road's cycle (``scenario.period_s``) the first frame lies, s: the
+        geometry at time t is the scenario's at ``t + start_s`` (its manoeuvres keep their times).
 
     Examples
     --------
@@ -928,8 +932,11 @@ class Renderer:
 
     def __init__(self, camera: CameraModel, mount: Mount, scenario: Scenario, seed: int = 0,
                  z_near: float = 6.0, z_far: float = 35.0, supersample: int = 2,
-                 appearance: Appearance | None = None):
+                 appearance: Appearance | None = None, start_s: float = 0.0):
         self.camera, self.mount, self.sc = camera, mount, scenario
+        if not math.isfinite(start_s):
+            raise LaneFinderError(f"start_s must be a finite number of seconds, not {start_s}")
+        self.start_s = float(start_s)
         self.look = appearance or Appearance()
         self.z_near, self.z_far = z_near, z_far
         self.rot = level_to_camera(mount.pitch_deg, mount.yaw_deg)
@@ -986,7 +993,7 @@ class Renderer:
             (1/m^2), ``width`` (m), ``travelled`` (m), ``vertical_curvature`` (1/m).
         """
         sc = self.sc
-        ph = 2 * math.pi * t / sc.period_s
+        ph = 2 * math.pi * (t + self.start_s) / sc.period_s
 
         def val(base_amp: tuple[float, float], phase: float = 0.0) -> float:
             return base_amp[0] + base_amp[1] * math.sin(ph + phase)
@@ -1779,9 +1786,33 @@ def check_render_memory(frame_size: tuple[int, int], budget_mb: int | None = Non
                               "allows; use a camera file for a smaller image size")
 
 
+def road_start_s(scenario: Scenario, seed: int) -> float:
+    """Draw from a seed where in a scenario's cycle of geometry a sequence starts.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its ``period_s``).
+    seed : int
+        The sequence's seed.
+
+    Returns
+    -------
+    float
+        Seconds into the cycle, from 0 to ``scenario.period_s``.
+
+    Examples
+    --------
+    >>> a, b = road_start_s(SCENARIOS["winding"], 101), road_start_s(SCENARIOS["winding"], 102)
+    >>> 0 <= a < 7 and 0 <= b < 7 and a != b
+    True
+    """
+    return float(np.random.default_rng([int(seed), 0x0AD5]).uniform(0.0, scenario.period_s))
+
+
 def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path, seed: int = 0,
                    camera: CameraModel | None = None, mount: Mount | None = None, fps: int = 25,
-                   progress: bool = False, randomise: bool = False) -> Path:
+                   progress: bool = False, randomise: bool = False, road_from_seed: bool = False) -> Path:
     """Write a synthetic sequence: video.mp4, gt.jsonl, events_gt.jsonl, camera.json, config.toml, scenario.json.
 
     ``events_gt.jsonl`` holds the true lane events: :func:`lanefinder.events.detect_events`
@@ -1811,6 +1842,10 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     randomise : bool, optional
         Draw the road's look, the lane width and the camera mount from the seed
         (:meth:`Appearance.random`); ``mount``, when given, still wins.
+    road_from_seed : bool, optional
+        Draw from the seed, too, where in the road's cycle the sequence starts
+        (:func:`road_start_s`; ``scenario.json`` records it as ``start_s``): without it every
+        seed drives the same stretch of road, its first seconds.
 
     Returns
     -------
@@ -1860,7 +1895,8 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
     look = Appearance.random(seed) if randomise else Appearance()
     if randomise:
         scenario = replace(scenario, width_m=(look.lane_width_m, min(scenario.width_m[1], 0.1)))
-    renderer = Renderer(cam, mount or look.mount, scenario, seed, appearance=look)
+    start_s = road_start_s(scenario, seed) if road_from_seed else 0.0
+    renderer = Renderer(cam, mount or look.mount, scenario, seed, appearance=look, start_s=start_s)
     w, h = cam.image_size
     info = VideoInfo(w, h, Fraction(fps), n_frames, n_frames / fps, "h264")
     rows, truth_rows = [], []
@@ -1894,6 +1930,7 @@ def write_sequence(scenario: str | Scenario, n_frames: int, out_dir: str | Path,
         if not scenario.conditions.roadside:
             del described["conditions"]["roadside"]
         meta = {"scenario": described, "seed": seed, "frames": n_frames, "fps": fps,
+                **({"start_s": round(start_s, 6)} if road_from_seed else {}),
                 "mount": asdict(renderer.mount), "z_near_m": renderer.z_near, "z_far_m": renderer.z_far}
         if randomise:
             meta["appearance"] = {k: v for k, v in asdict(look).items() if k not in ("mount", "lane_width_m")}
