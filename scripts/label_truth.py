@@ -41,6 +41,7 @@ import cv2
 import numpy as np
 
 from lanefinder.errors import LaneFinderError
+from lanefinder.io import atomic_write_text, check_outputs
 from lanefinder.telemetry import h_samples
 from lanefinder.video import VideoInfo, frames
 
@@ -278,7 +279,6 @@ def main() -> int:
     a = ap.parse_args()
     if a.out is None and a.grid is None:
         ap.error("give -o TRUTH.jsonl, or --grid DIR to draw the frames for writing anchors")
-    tmp = None
     try:
         for p in (a.video, a.anchors):
             if not p.exists():
@@ -295,12 +295,11 @@ def main() -> int:
                 _writable_folder(folder, what)
         if a.out is not None and a.out.is_dir():
             raise ValueError(f"-o {a.out} is a folder: name the file to write")
+        if a.out is not None:
+            check_outputs([a.out], [a.video, a.anchors])  # never written over what it reads
         rows_out = label(a, anchors)
         if a.out is not None:
-            tmp = a.out.with_name(a.out.name + ".part")
-            tmp.write_text("".join(json.dumps(r) + "\n" for r in rows_out))
-            tmp.replace(a.out)
-            tmp = None
+            atomic_write_text(a.out, "".join(json.dumps(r) + "\n" for r in rows_out))
             seen = sum(x >= 0 for r in rows_out for x in r["left_x"] + r["right_x"])
             print(f"wrote {a.out}: {len(rows_out)} frames, {seen} labelled points")
     except (ValueError, LaneFinderError) as e:
@@ -309,9 +308,6 @@ def main() -> int:
     except OSError as e:
         print(f"label_truth: error: {e.strerror or e}{f': {e.filename}' if e.filename else ''}", file=sys.stderr)
         return 2
-    finally:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)
     return 0
 
 

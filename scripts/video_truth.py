@@ -29,6 +29,7 @@ from pathlib import Path
 
 from lanefinder.config import Config, load_config
 from lanefinder.errors import LaneFinderError
+from lanefinder.io import atomic_write_text, check_outputs
 from lanefinder.pipeline import LaneFinder
 from lanefinder.stats import labelled_stats
 from lanefinder.telemetry import h_samples, is_number_list
@@ -108,6 +109,9 @@ def main() -> int:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         if not os.access(a.json.parent, os.W_OK | os.X_OK):
             raise ValueError(f"cannot write in {a.json.parent}")
+        names = a.only or VIDEOS  # never written over what it reads
+        check_outputs([a.json], [p for n in names for p in (a.videos / f"{n}.mp4", a.labels / f"{n}.jsonl")]
+                      + ([a.config] if a.config else []))
     except (ValueError, LaneFinderError) as e:
         print(f"video_truth: error: {e}", file=sys.stderr)
         return 2
@@ -144,13 +148,10 @@ def main() -> int:
         print(f"video_truth: error: nothing scored: {', '.join(skipped)} (a video or its labels not found)",
               file=sys.stderr)
         return 2
-    tmp = a.json.with_name(a.json.name + ".part")
     try:
-        tmp.write_text(json.dumps(report, indent=2) + "\n")
-        tmp.replace(a.json)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        print(f"video_truth: error: cannot write {a.json}: {e.strerror or e}", file=sys.stderr)
+        atomic_write_text(a.json, json.dumps(report, indent=2) + "\n")
+    except LaneFinderError as e:
+        print(f"video_truth: error: {e}", file=sys.stderr)
         return 2
     print(f"\nreport: {a.json}")
     if a.only and skipped:

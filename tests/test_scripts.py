@@ -198,3 +198,27 @@ def test_video_truth_refuses_a_missing_videos_folder(tmp_path):
     p = run_script(ROOT / "scripts" / "video_truth.py", "--videos", tmp_path / "nope", "--json", tmp_path / "r.json")
     assert p.returncode == 2 and "the Udacity videos are not at" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+@pytest.mark.slow  # writes a video
+def test_label_truth_never_writes_over_what_it_reads(tmp_path):
+    clip = tmp_path / "clip.mp4"
+    _label_clip(clip)
+    anchors = tmp_path / "a.txt"
+    anchors.write_text("1 L 680:362 560:432 450:498\n")
+    for out in (anchors, clip):
+        before = out.read_bytes()
+        p = run_script(ROOT / "scripts" / "label_truth.py", clip, anchors, "-o", out)
+        assert p.returncode == 2 and "refusing to overwrite the input" in p.stderr and "Traceback" not in p.stderr
+        assert out.read_bytes() == before
+
+
+def test_video_truth_never_writes_over_the_labels_it_reads(tmp_path):
+    (tmp_path / "videos").mkdir()
+    (tmp_path / "labels").mkdir()
+    labels = tmp_path / "labels" / "project_video.jsonl"
+    labels.write_text("{}\n")
+    p = run_script(ROOT / "scripts" / "video_truth.py", "--only", "project_video", "--videos", tmp_path / "videos",
+                   "--labels", tmp_path / "labels", "--json", labels)
+    assert p.returncode == 2 and "refusing to overwrite the input" in p.stderr and "Traceback" not in p.stderr
+    assert labels.read_text() == "{}\n"
