@@ -149,8 +149,12 @@ def main() -> int:
     report = a.out / ("report_selfcal.json" if a.self_calibrate else "report.json")
     report.write_text(json.dumps({k: asdict(v) for k, v in results.items()}, indent=2) + "\n")
     seeds = ", ".join(map(str, a.seeds))
-    look = "fixed look" if a.fixed else "look, camera and stretch of road drawn from each seed" if not a.same_road \
-        else "look and camera drawn from each seed, the same stretch of road"
+    if a.fixed:
+        look = "fixed look"
+    elif a.same_road:
+        look = "look and camera drawn from each seed, the same stretch of road"
+    else:
+        look = "look, camera and stretch of road drawn from each seed"
     if a.lens_hfov is not None:
         look += f", an ideal {a.lens_hfov:g}-degree lens at {size[0]}x{size[1]}"
     elif camera is not None:

@@ -26,11 +26,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import LaneFinderError
+from .io import iter_json_lines
+from .telemetry import MAX_ABS_VALUE, is_number, is_number_list, read_telemetry
 
 if TYPE_CHECKING:
     from .birdseye import BirdsEye
-from .io import iter_json_lines
-from .telemetry import MAX_ABS_VALUE, is_number, is_number_list, read_telemetry
 
 __all__ = [
     "BANDS_M",

@@ -412,7 +412,7 @@ def _smooth_bend(s: list[float], r: list[float], anchor_s: float, scatter_px: fl
     """Tell whether a far part's rows lie on a cubic (see :data:`SMOOTH_MIN_ROWS`): a changing bend, not texture."""
     if len(s) < SMOOTH_MIN_ROWS:
         return False
-    cubic_px = statistics.median(_smooth_residuals(s, r, anchor_s).tolist())
+    cubic_px = float(np.median(_smooth_residuals(s, r, anchor_s)))
     return cubic_px <= limit_px and cubic_px <= (1 - SMOOTH_SHARE) * scatter_px
 
 
@@ -428,10 +428,10 @@ def _smooth_residuals(s: list[float], r: list[float], anchor_s: float) -> np.nda
         return np.empty(0)
     sa = np.asarray([*s, anchor_s], np.float64) if anchor_s > 0 else np.asarray(s, np.float64)
     ra = np.asarray([*r, 0.0], np.float64) if anchor_s > 0 else np.asarray(r, np.float64)
-    scale = float(sa.max()) or 1.0
-    t = sa / scale
-    coef = np.linalg.lstsq(np.column_stack([t, t * t, t * t * t]), ra, rcond=None)[0]
-    return np.abs(np.column_stack([t, t * t, t * t * t]) @ coef - ra)[: len(s)]
+    t = sa / (float(sa.max()) or 1.0)
+    basis = np.column_stack([t, t * t, t * t * t])
+    coef = np.linalg.lstsq(basis, ra, rcond=None)[0]
+    return np.abs(basis @ coef - ra)[: len(s)]
 
 
 def far_rows(end_px: float, n: int) -> np.ndarray:
