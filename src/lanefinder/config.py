@@ -521,7 +521,7 @@ class SearchConfig(_Section):
     inner_preference : float
         A pair of bases inside the best-scoring pair (each base at or inside it), nearer the
         expected lane width, that scores at least this fraction of it is taken instead (of
-        several, the narrowest): a lane is bounded by the first marking out
+        several, the best-scoring): a lane is bounded by the first marking out
         from the car, and a kerb, rail or the next line beyond may be stronger.  0 (the
         default) takes the best pair.
     inner_retry_preference : float
