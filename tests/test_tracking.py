@@ -279,6 +279,38 @@ def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(trac
     assert t.left.found and t.left.fit_m[2] == pytest.approx(far[2])
 
 
+def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(tracker):
+    cfg = tracker.cfg
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    for _ in range(cfg.max_misses):
+        tracker.update(None, None, blind=False)
+    assert tracker.needs_blind_search
+    # A pair 0.6 m to the left (glare edges), its surer line weaker than a start needs: a miss,
+    # seen on every frame, until the held lane is lost; then it starts the lane (seen before).
+    shift = np.array([0, 0, -0.6])
+    weak = cfg.min_start_confidence - 0.05
+    held = 0
+    while tracker.track.has_lane:
+        t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT + shift, 0.9), blind=True)
+        if tracker.track.has_lane:
+            held += 1
+            assert "weak-pair" in t.reasons and not t.left.found and not t.right.found
+            assert t.left.fit_m[2] == pytest.approx(LEFT[2])  # still the held lane
+        assert held < 100
+    assert t.state == LOST
+    t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT + shift, 0.9), blind=True)
+    assert t.state == REDETECT and t.left.found and t.left.fit_m[2] == pytest.approx(LEFT[2] - 0.6)
+    # The same weak pair where the held lane is, or a sure pair elsewhere, is taken at once.
+    for left, right, conf in ((LEFT, RIGHT, weak), (LEFT + shift, RIGHT + shift, 0.9)):
+        tracker.reset()
+        tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+        for _ in range(cfg.max_misses):
+            tracker.update(None, None, blind=False)
+        t = tracker.update(meas(left, conf), meas(right, conf), blind=True)
+        assert t.left.found and t.right.found and "weak-pair" not in t.reasons
+        assert t.left.fit_m[2] == pytest.approx(left[2])
+
+
 def test_counts_and_gains_follow_the_frame_rate():
     from lanefinder.config import TrackingConfig
     from lanefinder.tracking import at_fps
