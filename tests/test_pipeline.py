@@ -383,24 +383,45 @@ def test_inner_preference_takes_the_line_before_a_stronger_rail_beyond_it():
     assert find_bases(hist, 200.0, inner) == (126.0, 277.0)
 
 
-def test_inner_preference_takes_the_best_supported_inner_pair_not_a_speck():
+def test_inner_preference_takes_the_best_scoring_inner_pair_not_a_speck():
     # Synthetic hills seed 5: a yellow line, the dashed right line (a third of the rows) and a
     # solid edge line 1 m beyond it.  A speck of texture inside the dashed line also makes a
-    # pair nearer the expected width; the narrowest pair took it, the best-supported takes the
-    # line.  (A speck as strong as the dashed line would still be taken.)
+    # pair nearer the expected width; the narrowest pair took it, the best-scoring takes the
+    # line (with or without the preference for a lane around the car).  A speck whose pair with
+    # the stronger outer line scores more than the true pair would still win.
+    from dataclasses import replace
+
     from lanefinder.config import SearchConfig
     from lanefinder.search import find_bases, histogram, search_params
 
     b = np.zeros((300, 400), np.uint8)
-    b[:, 132:136] = 1  # the left line
+    b[:, 131:137] = 1  # the left line
     b[np.arange(300) % 36 < 12, 271:275] = 1  # the dashed right line (a third of the rows): a 3.4 m lane
     b[:, 311:316] = 1  # the solid edge line 1 m beyond it: 4.4 m, within the width tolerance
     b[270:300, 179:183] = 1  # a speck of texture near the car: with the edge line, 3.3 m
     hist = histogram(b, 0.5)
     inner = search_params(SearchConfig(inner_preference=0.5), 3.7 / 150, 0.0985)
-    left, right = find_bases(hist, 200.0, inner)
+    for sp in (inner, replace(inner, centre_preference=0.0)):
+        left, right = find_bases(hist, 200.0, sp)
+        assert left is not None and right is not None
+        assert abs(left - 134) < 3 and abs(right - 273) < 3
+
+
+def test_inner_preference_takes_the_first_marking_out_not_a_kerb_inside_a_rail():
+    # A faint edge line (3.7 m lane), a kerb beyond it (4.0 m) and a bright rail (4.4 m): the
+    # best-scoring pair inside the rail's is the kerb's, and inside that one the line's.
+    from lanefinder.config import SearchConfig
+    from lanefinder.search import find_bases, histogram, search_params
+
+    b = np.zeros((300, 400), np.uint8)
+    b[:, 122:128] = 1  # the left line
+    b[:, 273:277] = 1  # the faint edge line
+    b[:, 285:291] = 1  # a kerb 0.3 m beyond it
+    b[:, 300:312] = 1  # a bright rail
+    inner = search_params(SearchConfig(inner_preference=0.5), 3.7 / 150, 0.0985)
+    left, right = find_bases(histogram(b, 0.5), 200.0, inner)
     assert left is not None and right is not None
-    assert abs(left - 134) < 3 and abs(right - 273) < 3
+    assert abs(left - 125) < 3 and abs(right - 275) < 3
 
 
 def test_a_line_is_not_reported_where_the_frame_is_blown_out(test_images, tmp_path):

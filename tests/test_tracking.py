@@ -285,10 +285,10 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
     for _ in range(cfg.max_misses):
         tracker.update(None, None, blind=False)
     assert tracker.needs_blind_search
-    # A pair 0.6 m to the left (glare edges), its surer line weaker than a start needs: a miss,
+    # A pair beyond the jump limit to the left (glare edges), one line weaker than a start needs: a miss,
     # seen on every frame, until the held lane is lost; then it starts the lane (seen before).
-    shift = np.array([0, 0, -0.6])
-    weak = cfg.min_start_confidence - 0.05
+    shift = np.array([0, 0, -1.5 * cfg.max_offset_jump_m])
+    weak = (cfg.min_confidence + cfg.min_start_confidence) / 2
     held = 0
     while tracker.track.has_lane:
         t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT + shift, 0.9), blind=True)
@@ -299,9 +299,11 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
         assert held < 100
     assert t.state == LOST
     t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT + shift, 0.9), blind=True)
-    assert t.state == REDETECT and t.left.found and t.left.fit_m[2] == pytest.approx(LEFT[2] - 0.6)
-    # The same weak pair where the held lane is, or a sure pair elsewhere, is taken at once.
-    for left, right, conf in ((LEFT, RIGHT, weak), (LEFT + shift, RIGHT + shift, 0.9)):
+    assert t.state == REDETECT and t.left.found and t.left.fit_m[2] == pytest.approx(LEFT[2] + shift[2])
+    # The same weak pair where the held lane is, or a pair elsewhere both of whose lines are sure
+    # enough to start a lane (exactly at the threshold too), is taken at once.
+    for left, right, conf in ((LEFT, RIGHT, weak), (LEFT + shift, RIGHT + shift, 0.9),
+                              (LEFT + shift, RIGHT + shift, cfg.min_start_confidence)):
         tracker.reset()
         tracker.update(meas(LEFT), meas(RIGHT), blind=True)
         for _ in range(cfg.max_misses):
@@ -309,6 +311,13 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
         t = tracker.update(meas(left, conf), meas(right, conf), blind=True)
         assert t.left.found and t.right.found and "weak-pair" not in t.reasons
         assert t.left.fit_m[2] == pytest.approx(left[2])
+    # One line of a weak pair beyond the jump limit is enough to be refused.
+    tracker.reset()
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    for _ in range(cfg.max_misses):
+        tracker.update(None, None, blind=False)
+    t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT, 0.9), blind=True)
+    assert "weak-pair" in t.reasons and t.left.fit_m[2] == pytest.approx(LEFT[2])
 
 
 def test_counts_and_gains_follow_the_frame_rate():

@@ -732,7 +732,9 @@ class TrackingConfig(_Section):
     max_one_line_frames : int
         Frames one line alone may hold the lane.
     min_start_confidence : float
-        Confidence a line needs to start (or re-place) a lane alone.
+        Confidence a line needs to start (or re-place) a lane alone; both lines of a pair need
+        it to start a lane at once after a lost one, or to replace a held lane elsewhere when
+        re-detecting (``weak-pair``).
     still_start_confidence : float
         ... in a single still (``lanefinder image``), where no later frame can confirm or
         correct a start: the other line is then drawn as inferred at the default lane width.

@@ -405,13 +405,14 @@ def _scored_bases(hist: np.ndarray, car_x: float, cfg: SearchParams) -> tuple[fl
         if cfg.inner_preference > 0:
             # A lane is bounded by the first marking out from the car on each side: a kerb, rail
             # or the next line beyond it may be stronger.  A pair inside the best one, nearer the
-            # expected width, that scores at least inner_preference of it wins; of those, the
-            # best-supported (the narrowest took a speck of texture inside the true line: a
-            # dashed line with a solid edge line beyond it, synthetic hills seed 5).
+            # expected width, that scores at least inner_preference of the best wins; of those, the
+            # best-scoring (the narrowest took a speck of texture inside the true line: a dashed
+            # line with a solid edge line beyond it, synthetic hills seed 5), and again inside
+            # that one (a kerb beyond the line but inside a rail).  Each step nears the expected
+            # width, so it ends.
             miss = np.abs(gap - expected_width_px)
-            inner = (li >= li[i, j]) & (ri <= ri[i, j]) & (score >= cfg.inner_preference * score[i, j])
-            inner &= miss < miss[i, j]
-            if inner.any():
+            enough = score >= cfg.inner_preference * score[i, j]
+            while (inner := enough & (li >= li[i, j]) & (ri <= ri[i, j]) & (miss < miss[i, j])).any():
                 i, j = np.unravel_index(int(np.argmax(np.where(inner, score, -np.inf))), gap.shape)
         return float(li[i, j]), float(ri[i, j]), float(score[i, j])
     best = int(peaks[0])
