@@ -320,6 +320,23 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
     assert "weak-pair" in t.reasons and t.left.fit_m[2] == pytest.approx(LEFT[2])
 
 
+def test_a_lane_seen_far_ahead_does_not_age_while_held(tracker):
+    from lanefinder.tracking import seen_far
+
+    cfg = tracker.cfg
+    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
+    # Nothing in the view for three times the hold, but both lines followed beyond it each frame.
+    for _ in range(3 * cfg.hold_gentle_frames):
+        t = tracker.update(None, None, blind=tracker.needs_blind_search)
+        tracker.track = seen_far(tracker.track)
+        assert t.state != LOST and not tracker.needs_blind_search
+    assert tracker.track.misses == 0
+    # Without it, lost after the hold.
+    for _ in range(cfg.hold_gentle_frames + 1):
+        t = tracker.update(None, None, blind=tracker.needs_blind_search)
+    assert t.state == LOST and seen_far(tracker.track) == tracker.track
+
+
 def test_counts_and_gains_follow_the_frame_rate():
     from lanefinder.config import TrackingConfig
     from lanefinder.tracking import at_fps

@@ -32,7 +32,7 @@ from .search import Pixels
 from .selfcal import SelfCalibrator, lines_setup, look_at_still
 from .selfcal import wanted as selfcal_wanted
 from .threshold import rowwise, streak_points, threshold
-from .tracking import Track, Verdict, step
+from .tracking import Track, Verdict, seen_far, step
 
 __all__ = [
     "MIN_FRAME_PX",
@@ -469,8 +469,10 @@ class LaneFinder:
         if not self.self_calibrate:
             measurer = self._still_measurer() if self._in_still else None
             result = self.extend_far(frame, self.process_binary(binary, be, view, measurer), be)
+            self._seen_far(result)
             return result if self._still_source is None else replace(result, setup=self._still_source)
         result = self.extend_far(frame, self.process_binary(binary, be, view, self._frame_measurer()), be)
+        self._seen_far(result)
         self._curvature_per_m = result.curvature_per_m if result.lane_found else math.nan
         used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)
         new = self.selfcal.offer(frame, self._curvature_per_m)
@@ -678,6 +680,13 @@ class LaneFinder:
             same = all(getattr(t.ridge, k) == v for k, v in ridge.items())
             self._ridge_variants[key] = t if same else t.model_copy(update={"ridge": t.ridge.model_copy(update=ridge)})
         return self._ridge_variants[key]
+
+    def _seen_far(self, result: LaneResult) -> None:
+        """Keep a held lane from ageing on a frame where both its lines are followed beyond the view (``far.hold``)."""
+        if not self.config.far.hold or result.left.found or result.right.found:
+            return
+        if all(line.far_fit_px is not None for line in result.lines):
+            self.track = seen_far(self.track, self.measurer.rules.cfg)
 
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).

@@ -37,7 +37,7 @@ from .config import TrackingConfig
 from .geometry import Scale, curvature_per_m, lane_width_m, m_to_px, poly_x
 from .lane import LOST, REDETECT, SIDES, TRACKING, Line
 
-__all__ = ["Candidate", "Rules", "Track", "Verdict", "at_fps", "hold_frames", "implied_lane", "step"]
+__all__ = ["Candidate", "Rules", "Track", "Verdict", "at_fps", "hold_frames", "implied_lane", "seen_far", "step"]
 
 Fit = np.ndarray
 Pair = tuple[Line | None, Line | None]
@@ -373,6 +373,40 @@ def hold_frames(track: Track, cfg: TrackingConfig) -> int:
         return cfg.lost_after
     k = max(abs(curvature_per_m(f)) for f in track.fits_m)  # type: ignore[arg-type]
     return max(cfg.lost_after, cfg.hold_gentle_frames) if k * cfg.hold_gentle_radius_m <= 1 else cfg.lost_after
+
+
+def seen_far(track: Track, cfg: TrackingConfig | None = None) -> Track:
+    """Take back a held lane's last miss: both its lines' markings were seen beyond the view.
+
+    Worn paint whose near dashes are gone may still show farther ones where the held lane
+    runs on; the far field (:mod:`lanefinder.farfield`) follows them.  Such a frame is not
+    counted towards losing the lane (nor towards a blind search).
+
+    Parameters
+    ----------
+    track : Track
+        The track after a frame's :func:`step`.
+    cfg : TrackingConfig, optional
+        With it, a lane curving tighter than ``hold_gentle_radius_m`` is not kept (see
+        :func:`hold_frames`: its bend can change within a second).
+
+    Returns
+    -------
+    Track
+        The same track with one miss fewer, when it holds a lane with at least one miss;
+        else ``track``.
+
+    Examples
+    --------
+    >>> held = Track(fits_m=(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9])), misses=3)
+    >>> seen_far(held).misses, seen_far(Track()).misses
+    (2, 0)
+    """
+    if not track.has_lane or track.misses <= 0:
+        return track
+    if cfg is not None and hold_frames(track, cfg) <= cfg.lost_after < cfg.hold_gentle_frames:
+        return track
+    return replace(track, misses=track.misses - 1)
 
 
 def _miss(track: Track, reasons: list[str], conf: tuple[float, float], measured: Pair, blind: bool,
