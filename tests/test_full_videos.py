@@ -73,7 +73,7 @@ def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):
     st = _run("harder_challenge_video", tmp_path)
     assert st["frames"] == 1199
     assert st["lost_pct"] <= 6  # measured 5.2% (62 frames), most of it in the hairpin at 40-43.6 s
-    assert st["both_seen_pct"] > 74  # measured 75.9%
+    assert st["both_seen_pct"] > 74  # measured 75.7% (2026-11-27)
     # While tracking, the lane does not leap; only a re-detection after misses may move it. Measured:
     # three times, each onto the right lane from a wrong one held in glare or shade (checked on the
     # frames): by 0.84 m at 27.56 s, 1.52 m at 28.92 s and 1.11 m at 35.92 s.

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -339,6 +341,31 @@ def test_the_lane_fit_keeps_the_specks_out_too():
     rx, ry = 275 + np.tile(np.arange(6) - 2.5, 300), np.repeat(np.arange(300.0), 6)
     left, _ = fit_lane((np.r_[lx, sx], np.r_[ly, sy]), (rx, ry), 300, p)
     assert abs(float(np.polyval(left.coeffs_px, 299.0)) - 125.0) < 2.0  # 160 when the median took the specks
+
+
+def test_a_held_lane_is_kept_only_when_both_lines_are_seen_far_and_nothing_speaks_against_it():
+    from lanefinder.tracking import Track
+
+    finder = LaneFinder(Config())
+    be = finder.birdseye((1280, 720))
+    cfg = finder.measurer.rules.cfg
+    held = Track(fits_m=(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9])), misses=cfg.max_misses + 2)
+    finder.track = held
+    shown = finder.process_binary(np.zeros(be.size[::-1], np.uint8), be)  # held: both lines shown
+    finder.track = held
+    far = np.array([0.0, 0.0, 125.0])
+    both = replace(shown, left=replace(shown.left, far_fit_px=far), right=replace(shown.right, far_fit_px=far))
+    one = replace(shown, left=replace(shown.left, far_fit_px=far))
+    jumped = replace(both, checks=("left-jump",))
+    for result, kept in ((both, True), (one, False), (jumped, False)):
+        finder.track = held
+        finder._seen_far(result)
+        assert (finder.track.misses == held.misses - 1) is kept
+    off = LaneFinder(Config.model_validate({"far": {"hold": False}}))
+    off.birdseye((1280, 720))
+    off.track = held
+    off._seen_far(both)
+    assert off.track is held
 
 
 def test_sparse_rows_with_a_small_subsample_are_still_fitted():

@@ -320,21 +320,35 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
     assert "weak-pair" in t.reasons and t.left.fit_m[2] == pytest.approx(LEFT[2])
 
 
-def test_a_lane_seen_far_ahead_does_not_age_while_held(tracker):
+def test_a_lane_seen_far_ahead_ages_slower_while_held_and_is_still_lost(tracker):
     from lanefinder.tracking import seen_far
 
     cfg = tracker.cfg
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    # Nothing in the view for three times the hold, but both lines followed beyond it each frame.
-    for _ in range(3 * cfg.hold_gentle_frames):
+    # Nothing in the view, both lines followed beyond it on every frame: searched blind after
+    # max_misses, and held past the gentle hold, but lost within three times it.
+    frames = 0
+    while True:
         t = tracker.update(None, None, blind=tracker.needs_blind_search)
-        tracker.track = seen_far(tracker.track)
-        assert t.state != LOST and not tracker.needs_blind_search
-    assert tracker.track.misses == 0
-    # Without it, lost after the hold.
-    for _ in range(cfg.hold_gentle_frames + 1):
-        t = tracker.update(None, None, blind=tracker.needs_blind_search)
-    assert t.state == LOST and seen_far(tracker.track) == tracker.track
+        tracker.track = seen_far(tracker.track, cfg)
+        frames += 1
+        if t.state == LOST:
+            break
+        assert frames < 4 * cfg.hold_gentle_frames
+        if frames > cfg.max_misses + 1:
+            assert tracker.needs_blind_search  # a pair found blind, sure enough, may replace it
+    assert cfg.hold_gentle_frames + 1 < frames <= 3 * cfg.hold_gentle_frames + 2
+    # Not before the blind search, not in a tight bend, not without a lane.
+    held = Track(fits_m=(LEFT.copy(), RIGHT.copy()), misses=2)
+    assert seen_far(held, cfg) is held
+    hairpin = Track(fits_m=(np.array([0.02, 0.0, -1.8]), np.array([0.02, 0.0, 1.9])), misses=cfg.max_misses + 2)
+    assert seen_far(hairpin, cfg) is hairpin
+    assert seen_far(replace(held, misses=cfg.max_misses + 2), cfg).misses == cfg.max_misses + 1
+    empty = Track()
+    assert seen_far(empty, cfg) is empty
+    # With no gentle radius (nothing is held longer), nothing is taken back either.
+    flat = replace(held, misses=cfg.max_misses + 2)
+    assert seen_far(flat, cfg.model_copy(update={"hold_gentle_radius_m": 0.0})) is flat
 
 
 def test_counts_and_gains_follow_the_frame_rate():

@@ -904,11 +904,12 @@ class FarConfig(_Section):
         what is found is mostly noise.  8 keeps the whole view at 1280x720 with the Udacity
         lens (about 12 px a metre at 96 m) and ends it about 62 m ahead at 640x360.
     hold : bool
-        A lane held without a line measured in the view, whose two lines' markings are both
-        followed beyond it on that frame, does not age towards lost (:func:`lanefinder.tracking.seen_far`):
-        worn paint whose near dashes are gone shows farther ones.  Tuning seeds 0-10 (own
-        stretches): worn 0.8907 -> 0.9026, no lane on 3.3% -> 1.5% of its frames; one line's
-        far part was not enough (curve-entry 0.9581 -> 0.9355).
+        A held lane whose two lines' markings are both followed beyond the view on a frame
+        ages slower towards lost (:func:`lanefinder.tracking.seen_far`, within its bounds; not
+        on a frame whose measured lines were refused for lying elsewhere): worn paint whose near
+        dashes are gone shows farther ones.  Tuning seeds 0-10 (own stretches): worn 0.8907 ->
+        0.9026, no lane on 3.3% -> 1.5% of its frames; one line's far part was not enough
+        (curve-entry 0.9581 -> 0.9355).
 
     Examples
     --------

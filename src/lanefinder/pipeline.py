@@ -239,6 +239,10 @@ def _default_mount() -> tuple[float, float, float]:
             setup_of(be)[1])
 
 
+#: Reasons that refuse a measured line for lying elsewhere than the held lane (see ``_seen_far``).
+_AGAINST_HELD = frozenset({"offset", "one-line-too-long", "weak-pair"})
+
+
 def _confidences(measured: Measured) -> list[float]:
     """Each measured line's confidence, 0 for a line not measured."""
     return [0.0 if line is None else line.confidence for line in measured.lines]
@@ -682,8 +686,12 @@ class LaneFinder:
         return self._ridge_variants[key]
 
     def _seen_far(self, result: LaneResult) -> None:
-        """Keep a held lane from ageing on a frame where both its lines are followed beyond the view (``far.hold``)."""
-        if not self.config.far.hold or result.left.found or result.right.found:
+        """Keep a held lane from ageing on a frame where both its lines are followed beyond the view (``far.hold``).
+
+        Not on a frame whose measured lines were refused for lying elsewhere than the held lane
+        (a jump, the offset, one line for too long, a weak pair): those speak against it.
+        """
+        if not self.config.far.hold or any(c.endswith("-jump") or c in _AGAINST_HELD for c in result.checks):
             return
         if all(line.far_fit_px is not None for line in result.lines):
             self.track = seen_far(self.track, self.measurer.rules.cfg)

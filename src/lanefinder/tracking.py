@@ -22,7 +22,8 @@ The rules, in the order :func:`step` applies them:
 6. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
    a rejected frame is a miss, and after ``max_misses`` the next frame is searched blind,
    after ``hold_gentle_frames`` the lane is lost (after ``lost_after`` in a tight bend: see
-   :func:`hold_frames`).
+   :func:`hold_frames`; frames whose held lines are both seen far ahead count less: see
+   :func:`seen_far`).
 """
 
 from __future__ import annotations
@@ -369,42 +370,51 @@ def hold_frames(track: Track, cfg: TrackingConfig) -> int:
     >>> hold_frames(straight, cfg) == cfg.hold_gentle_frames, hold_frames(hairpin, cfg) == cfg.lost_after
     (True, True)
     """
+    return max(cfg.lost_after, cfg.hold_gentle_frames) if _gentle(track, cfg) else cfg.lost_after
+
+
+def _gentle(track: Track, cfg: TrackingConfig) -> bool:
+    """Tell whether a track's lane curves no tighter than ``1 / hold_gentle_radius_m`` (0: never gentle)."""
     if not track.has_lane or cfg.hold_gentle_radius_m <= 0:
-        return cfg.lost_after
+        return False
     k = max(abs(curvature_per_m(f)) for f in track.fits_m)  # type: ignore[arg-type]
-    return max(cfg.lost_after, cfg.hold_gentle_frames) if k * cfg.hold_gentle_radius_m <= 1 else cfg.lost_after
+    return bool(k * cfg.hold_gentle_radius_m <= 1)
 
 
-def seen_far(track: Track, cfg: TrackingConfig | None = None) -> Track:
+def seen_far(track: Track, cfg: TrackingConfig) -> Track:
     """Take back a held lane's last miss: both its lines' markings were seen beyond the view.
 
     Worn paint whose near dashes are gone may still show farther ones where the held lane
     runs on; the far field (:mod:`lanefinder.farfield`) follows them.  Such a frame is not
-    counted towards losing the lane (nor towards a blind search).
+    counted towards losing the lane, within bounds: only once the held lane is searched blind
+    (after ``max_misses``; a pair found blind, sure enough, still replaces it), only while
+    both lines were measured together no more than ``2 * hold_gentle_frames`` frames ago
+    (so a held lane is lost after about three times the gentle hold at most), and only for a
+    gentle lane (:func:`hold_frames`: a tighter bend can change within a second).
 
     Parameters
     ----------
     track : Track
         The track after a frame's :func:`step`.
-    cfg : TrackingConfig, optional
-        With it, a lane curving tighter than ``hold_gentle_radius_m`` is not kept (see
-        :func:`hold_frames`: its bend can change within a second).
+    cfg : TrackingConfig
+        ``max_misses``, ``hold_gentle_frames``, ``hold_gentle_radius_m``.
 
     Returns
     -------
     Track
-        The same track with one miss fewer, when it holds a lane with at least one miss;
-        else ``track``.
+        The same track with one miss fewer, or ``track`` where the bounds above say no.
 
     Examples
     --------
-    >>> held = Track(fits_m=(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9])), misses=3)
-    >>> seen_far(held).misses, seen_far(Track()).misses
-    (2, 0)
+    >>> from lanefinder.config import TrackingConfig
+    >>> cfg = TrackingConfig()
+    >>> held = Track(fits_m=(np.array([0.0, 0.0, -1.8]), np.array([0.0, 0.0, 1.9])), misses=cfg.max_misses + 3)
+    >>> seen_far(held, cfg).misses - held.misses, seen_far(replace(held, misses=2), cfg).misses
+    (-1, 2)
     """
-    if not track.has_lane or track.misses <= 0:
+    if not _gentle(track, cfg) or track.misses <= cfg.max_misses:
         return track
-    if cfg is not None and hold_frames(track, cfg) <= cfg.lost_after < cfg.hold_gentle_frames:
+    if track.since_both > 2 * cfg.hold_gentle_frames:
         return track
     return replace(track, misses=track.misses - 1)
 
