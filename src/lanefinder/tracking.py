@@ -550,11 +550,11 @@ def _weak_elsewhere(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: l
     """Rule 4 while a lane is held: a weak blind pair away from it does not replace it.
 
     Searched blind (after ``max_misses``) while the lane is still held, a pair that is not
-    sure enough to start a lane at once (a line below ``min_start_confidence``) and one of whose
-    lines lies beyond the jump limit of the
-    held one (:func:`~lanefinder.checks.lines_close`) is a miss: the held lane stays until it is
-    lost, and after that such a pair must be seen twice (``confirming``; sightings while it was
-    held count).  In glare and on worn paint the blind search pairs glare edges and shadows
+    sure enough to start a lane at once (a line below ``min_start_confidence``) and one of
+    whose lines lies beyond the jump limit of the held one
+    (:func:`~lanefinder.checks.lines_close`) is a miss: the held lane stays until it is lost,
+    and after that such a pair must be seen twice (``confirming``; sightings while it was held
+    count).  In glare and on worn paint the blind search pairs glare edges and shadows
     (synthetic glare, tuning seed 8: a lane 0.6 m off, then kept by the jump check; a weak
     pair seen twice was not enough either: glare showed the same wrong pair again).
     """
