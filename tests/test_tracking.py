@@ -42,6 +42,14 @@ class Tracker:
     def reset(self) -> None:
         self.track = Track()
 
+    def hold_until_blind(self) -> None:
+        """Start afresh with the lane LEFT/RIGHT, then miss it until the next frame is searched blind."""
+        self.reset()
+        self.update(meas(LEFT), meas(RIGHT), blind=True)
+        for _ in range(self.cfg.max_misses):
+            self.update(None, None, blind=False)
+        assert self.needs_blind_search
+
 
 @pytest.fixture
 def tracker() -> Tracker:
@@ -264,10 +272,7 @@ def test_a_guessed_line_comes_back_elsewhere_only_beside_an_anchored_line(tracke
 
 def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(tracker):
     cfg = tracker.cfg
-    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    for _ in range(cfg.max_misses):
-        tracker.update(None, None, blind=False)
-    assert tracker.needs_blind_search
+    tracker.hold_until_blind()
     # 0.6 m away (beyond the jump limit), weak, alone: no jump limit holds while re-detecting,
     # so it must not be taken.
     far = LEFT + np.array([0, 0, -0.6])
@@ -281,10 +286,7 @@ def test_re_detecting_after_misses_a_weak_line_alone_does_not_move_the_lane(trac
 
 def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(tracker):
     cfg = tracker.cfg
-    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    for _ in range(cfg.max_misses):
-        tracker.update(None, None, blind=False)
-    assert tracker.needs_blind_search
+    tracker.hold_until_blind()
     # A pair beyond the jump limit to the left (glare edges), one line weaker than a start needs: a miss,
     # seen on every frame, until the held lane is lost; then it starts the lane (seen before).
     shift = np.array([0, 0, -1.5 * cfg.max_offset_jump_m])
@@ -304,18 +306,12 @@ def test_re_detecting_a_held_lane_a_weak_pair_elsewhere_does_not_replace_it(trac
     # enough to start a lane (exactly at the threshold too), is taken at once.
     for left, right, conf in ((LEFT, RIGHT, weak), (LEFT + shift, RIGHT + shift, 0.9),
                               (LEFT + shift, RIGHT + shift, cfg.min_start_confidence)):
-        tracker.reset()
-        tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-        for _ in range(cfg.max_misses):
-            tracker.update(None, None, blind=False)
+        tracker.hold_until_blind()
         t = tracker.update(meas(left, conf), meas(right, conf), blind=True)
         assert t.left.found and t.right.found and "weak-pair" not in t.reasons
         assert t.left.fit_m[2] == pytest.approx(left[2])
     # One line of a weak pair beyond the jump limit is enough to be refused.
-    tracker.reset()
-    tracker.update(meas(LEFT), meas(RIGHT), blind=True)
-    for _ in range(cfg.max_misses):
-        tracker.update(None, None, blind=False)
+    tracker.hold_until_blind()
     t = tracker.update(meas(LEFT + shift, weak), meas(RIGHT, 0.9), blind=True)
     assert "weak-pair" in t.reasons and t.left.fit_m[2] == pytest.approx(LEFT[2])
 
