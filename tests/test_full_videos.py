@@ -45,7 +45,7 @@ def test_project_video_bars(tmp_path):
     # every frame (at 22.4 s a bump stretches the lane to 4.66 m for one frame; it is measured).
     assert all(r["state"] != "lost" and r["left_x"][-5] >= 0 and r["right_x"][-5] >= 0 for r in st["rows"])
     assert all(r["left_found"] and r["right_found"] for r in st["rows"])
-    assert st["width_std_m"] < 0.15  # measured 0.141 m
+    assert st["width_std_m"] < 0.15  # measured 0.134 m
     assert st["max_offset_jump_m"] < 0.15  # measured 0.073 m
     # The first (left) curve, 0-10 s: Udacity puts its radius at about 1 km.
     first = [r["radius_m"] for r in st["rows"] if r["time_s"] < 10]
@@ -53,8 +53,10 @@ def test_project_video_bars(tmp_path):
     median = first[len(first) // 2]
     assert 500 < median < 1500
     assert all(r["curvature_per_m"] < 0 for r in st["rows"] if r["time_s"] < 8)  # bends left
-    # Against the 20 hand-labelled frames: measured accuracy 0.9234, one line off (frame 133, 0.64 m at
-    # the far end of the right line, 60 m ahead, where a label is good to about 0.3 m).
+    # Against the 20 hand-labelled frames: measured accuracy 0.9117, one line off (frame 133, 0.55 m at
+    # the far end of the right line, 60 m ahead, where a label is good to about 0.3 m).  It was 0.9234
+    # before the lane lines pitched the set-up (selfcal.lines_horizon, from frame 100): fewer rows
+    # within 20 px, but each line's worst error nearer the labels on average (see the README).
     lab = _labelled("project_video", st["rows"])
     assert lab["shown"] == 20 and lab["accuracy"] > 0.91 and len(lab["off_frames"]) <= 1
 
@@ -64,9 +66,10 @@ def test_challenge_video_holds_the_lane(tmp_path):
     assert st["frames"] == 484  # the file holds 485; the last one does not decode
     assert st["lost_pct"] == 0
     assert st["both_seen_pct"] > 94  # measured: see the closing note; the bar is 98%
-    # Against the 20 hand-labelled frames: measured accuracy 0.8914, one line off (frame 127, 0.61 m).
+    # Against the 20 hand-labelled frames: measured accuracy 0.9102, one line off (frame 127, 0.61 m);
+    # 0.8914 before the lane lines pitched the set-up (selfcal.lines_horizon, at frame 167).
     lab = _labelled("challenge_video", st["rows"])
-    assert lab["shown"] == 20 and lab["accuracy"] > 0.88 and len(lab["off_frames"]) <= 1
+    assert lab["shown"] == 20 and lab["accuracy"] > 0.90 and len(lab["off_frames"]) <= 1
 
 
 def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):

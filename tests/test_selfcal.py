@@ -508,3 +508,87 @@ def test_a_wide_lens_given_without_a_setup_finds_the_lane_before_any_estimate(tm
     # Measured: 1.0 on every frame with the first frame's set-up, 0.58-0.98 (mean 0.88) on the
     # lens's own starting set-up alone; with the Udacity lens's trapezoid (before), 0.0 on each.
     assert np.mean(accuracy) > (0.95 if first_frame else 0.8)
+
+
+def _lines_in_view(be, horizon_px: float, height_m: float = 1.3) -> tuple:
+    """Two straight lines 3.5 m apart as a camera whose horizon is at ``horizon_px`` sees them, in ``be``'s view."""
+    from lanefinder.autosetup import road_homography
+    from lanefinder.birdseye import src_vanishing_point
+    from lanefinder.search import LinePixels
+
+    g = road_homography(be.camera.camera_matrix, (src_vanishing_point(be.src_px)[0], horizon_px), height_m)
+    z = np.linspace(5.0, 40.0, 400)
+    lines = []
+    for x_m in (-1.75, 1.75):
+        p = np.column_stack([np.full_like(z, x_m), z, np.ones_like(z)]) @ g.T
+        img = (p[:, :2] / p[:, 2:]).reshape(-1, 1, 2)
+        v = cv2.perspectiveTransform(img, be.matrix).reshape(-1, 2)
+        inside = (v[:, 1] >= 0) & (v[:, 1] < be.size[1])
+        lines.append(LinePixels(x=v[inside, 0], y=v[inside, 1]))
+    return lines[0], lines[1]
+
+
+def test_the_lane_lines_measured_pitch_the_setup_to_where_they_meet():
+    from lanefinder.birdseye import setup_of
+    from lanefinder.selfcal import SelfCalibrator
+
+    be = LaneFinder().birdseye((1280, 720))
+    horizon = setup_of(be)[0]
+    cfg = Config()
+    n = cfg.selfcal.lines_min_frames
+    cal = SelfCalibrator(cfg, be.camera, be)
+    left, right = _lines_in_view(be, horizon + 6.0)  # a camera pitched 0.3 degrees further up
+    assert all(cal.offer_lines(left, right, 0.0) is None for _ in range(n - 1))
+    assert np.isnan(cal.lines_horizon())
+    new = cal.offer_lines(left, right, 0.0)  # the n-th frame: the lines meet 6 px below the set-up's horizon
+    assert new is not None and cal.state.source == "lines" and cal.current is new
+    assert setup_of(new)[0] == pytest.approx(horizon + 6.0, abs=0.3)
+    assert setup_of(new)[1] == pytest.approx(setup_of(be)[1], rel=0.01)  # the height kept
+    # Seen with the new set-up the same road gives the same row: nothing more to change.
+    left2, right2 = _lines_in_view(new, horizon + 6.0)
+    assert all(cal.offer_lines(left2, right2, 0.0) is None for _ in range(n)) and cal.current is new
+
+    # A winding or hilly road, whose lines meet 10 px above or below by turns: too spread to tell.
+    cal = SelfCalibrator(cfg, be.camera, be)
+    up, down = _lines_in_view(be, horizon - 4.0), _lines_in_view(be, horizon + 16.0)
+    assert all(cal.offer_lines(*(up if i % 2 else down), 0.0) is None for i in range(2 * n))
+    assert np.isnan(cal.lines_horizon()) and cal.state.source == "default"
+    # A frame read as curving tighter than skip_radius_m, or with no lane read, is not taken ...
+    cal = SelfCalibrator(cfg, be.camera, be)
+    cal.offer_lines(left, right, 1 / 100)
+    cal.offer_lines(left, right, math.nan)
+    assert len(cal._horizons) == 0
+    # ... nor is any with lines_horizon off; and a shift within lines_min_shift_px changes nothing.
+    off = Config.model_validate({"selfcal": {"lines_horizon": False}})
+    cal = SelfCalibrator(off, be.camera, be)
+    assert all(cal.offer_lines(left, right, 0.0) is None for _ in range(n + 1)) and len(cal._horizons) == 0
+    cal = SelfCalibrator(cfg, be.camera, be)
+    near = _lines_in_view(be, horizon + 1.0)
+    assert all(cal.offer_lines(*near, 0.0) is None for _ in range(n + 1))
+    assert cal.lines_horizon() == pytest.approx(horizon + 1.0, abs=0.3)
+
+
+@pytest.mark.slow
+def test_a_video_whose_frames_give_no_estimate_is_pitched_by_its_lane_lines():
+    from lanefinder.birdseye import setup_of
+    from lanefinder.camera import udacity_camera
+
+    cam = udacity_camera()
+    r = Renderer(cam, Mount(height_m=1.3, pitch_deg=-1.85, yaw_deg=1.36), Scenario("straight", width_m=(3.6, 0.0)),
+                 seed=4)
+    true_horizon = setup_of(_truth(r, cam))[0]
+    # No look at the frames themselves (no first frame, one look at frame 1 and none after): only the lines.
+    only_lines = {"first_frame": False, "fast_frames": 0, "refine_every_frames": 100_000}
+    runs = {}
+    for lines in (False, True):
+        finder = LaneFinder(Config.model_validate({"selfcal": {**only_lines, "lines_horizon": lines}}),
+                            self_calibrate=True)
+        default = setup_of(finder.birdseye(cam.image_size))[0]
+        setups = [finder.process(r.render(i / 25)).setup for i in range(112)]
+        runs[lines] = (setups, setup_of(finder.birdseye(cam.image_size))[0])
+    assert abs(default - true_horizon) > 5  # the default set-up's horizon is 8.2 px off
+    setups, horizon = runs[True]
+    first = setups.index("lines")
+    # Measured: pitched at frame 100 (lines_min_frames: every frame had both lines), 0.01 px from the truth.
+    assert 100 <= first <= 105 and abs(horizon - true_horizon) < 1.0
+    assert set(runs[False][0]) == {"default"} and runs[False][1] == default

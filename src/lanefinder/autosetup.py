@@ -74,6 +74,7 @@ __all__ = [
     "road_from_lines",
     "road_homography",
     "road_points",
+    "straight_fits",
     "straight_frames_from_video",
     "vanishing_point",
     "view_from_estimate",
@@ -729,6 +730,57 @@ def road_points(g: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     return q[:, :2] / q[:, 2:]
 
 
+def straight_fits(left_px: np.ndarray, right_px: np.ndarray, bottom_y_px: float) -> tuple[np.ndarray, float]:
+    """Fit a straight line ``x = a + b y`` to each of two lines' pixels and give the row where they meet.
+
+    Parameters
+    ----------
+    left_px, right_px : (N, 2) array_like
+        (x, y) pixels of the left and the right line, undistorted (at least 10 each, over at
+        least 20 rows).
+    bottom_y_px : float
+        The bottom row of the view, pixels: the lines must meet above it (and above their pixels).
+
+    Returns
+    -------
+    fits : (2, 2) ndarray
+        (a, b) of the left and the right line (least squares).
+    row : float
+        The row where they meet, pixels.
+
+    Raises
+    ------
+    LaneFinderError
+        As :func:`road_from_lines` for the pixels.
+
+    Examples
+    --------
+    >>> y = np.arange(500.0, 700.0)
+    >>> fits, row = straight_fits(np.column_stack([640 - (y - 420), y]), np.column_stack([640 + (y - 420), y]), 684)
+    >>> round(row, 6), fits.round(3).tolist()
+    (420.0, [[1060.0, -1.0], [220.0, 1.0]])
+    """
+    fits, top = np.empty((2, 2)), math.inf
+    for i, pts in enumerate((left_px, right_px)):
+        p = np.asarray(pts, np.float64)
+        if p.ndim != 2 or p.shape[1] != 2 or not np.isfinite(p).all():
+            raise LaneFinderError("each line's pixels must be a finite (N, 2) array of (x, y)")
+        if len(p) < 10 or np.ptp(p[:, 1]) < 20:
+            raise LaneFinderError("a line has too few pixels near the car to read the road from")
+        x, y = p[:, 0], p[:, 1]
+        ym = y.mean()
+        b = float(np.dot(y - ym, x) / np.dot(y - ym, y - ym))  # least squares, in closed form
+        fits[i] = x.mean() - b * ym, b
+        top = min(top, float(y.min()))
+    (a1, b1), (a2, b2) = fits
+    if abs(b1 - b2) < 1e-6:
+        raise LaneFinderError("the two lines do not meet: no vanishing point")
+    y_v = float((a2 - a1) / (b1 - b2))
+    if not y_v < min(top, bottom_y_px - 20):
+        raise LaneFinderError(f"the two lines meet at row {y_v:.0f}, not above their pixels and the bottom row")
+    return fits, y_v
+
+
 def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np.ndarray, bottom_y_px: float,
                     lane_width_m: float = LANE_WIDTH_M, vp_x: float | None = None) -> RoadEstimate:
     """Estimate the road plane from the near parts of the two lines of one lane, on a curve too.
@@ -780,22 +832,7 @@ def road_from_lines(left_px: np.ndarray, right_px: np.ndarray, camera_matrix: np
     """
     if not lane_width_m > 0:
         raise LaneFinderError(f"the lane width must be positive, not {lane_width_m}")
-    fits, top = [], math.inf
-    for pts in (left_px, right_px):
-        p = np.asarray(pts, np.float64)
-        if p.ndim != 2 or p.shape[1] != 2 or not np.isfinite(p).all():
-            raise LaneFinderError("each line's pixels must be a finite (N, 2) array of (x, y)")
-        if len(p) < 10 or np.ptp(p[:, 1]) < 20:
-            raise LaneFinderError("a line has too few pixels near the car to read the road from")
-        b, a = np.polyfit(p[:, 1], p[:, 0], 1)
-        fits.append((a, b))
-        top = min(top, float(p[:, 1].min()))
-    (a1, b1), (a2, b2) = fits
-    if abs(b1 - b2) < 1e-6:
-        raise LaneFinderError("the two lines do not meet: no vanishing point")
-    y_v = (a2 - a1) / (b1 - b2)
-    if not y_v < min(top, bottom_y_px - 20):
-        raise LaneFinderError(f"the two lines meet at row {y_v:.0f}, not above their pixels and the bottom row")
+    ((a1, b1), (a2, b2)), y_v = straight_fits(left_px, right_px, bottom_y_px)
     vp = (float(a1 + b1 * y_v) if vp_x is None else float(vp_x), float(y_v))
     x_at = [[a1 + b1 * bottom_y_px, bottom_y_px], [a2 + b2 * bottom_y_px, bottom_y_px]]
     across = road_points(road_homography(camera_matrix, vp, 1.0), x_at)[:, 0]  # on a road 1 m down

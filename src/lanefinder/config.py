@@ -1093,6 +1093,25 @@ class SelfCalConfig(_Section):
         ... unless the last frame's lane curved tighter than this, m (a sharp curve's lines keep
         their shared shape: they lose more without it than a wrong set-up costs; 0: relaxed on
         every such frame).
+    lines_horizon : bool
+        The horizon is also read off the lane lines measured: on a flat road the near parts of
+        the two lines meet on it (:meth:`lanefinder.selfcal.SelfCalibrator.offer_lines`).  Each
+        frame with both lines measured on a road read as no tighter than ``skip_radius_m`` gives
+        that row; their median pitches the set-up in use (camera height and yaw kept), and every
+        later estimate, once ...
+    lines_min_frames : int
+        ... this many frames have given one (four seconds at 25 fps) ...
+    lines_window_frames : int
+        ... of the last this many ...
+    lines_max_spread_px : float
+        ... while they spread (a standard deviation, robust) no more than this, px per 720 rows (a
+        winding or hilly road moves where its lines meet: the harder challenge video's spread
+        about 12 px, the project and challenge videos' 3.5-5) ...
+    lines_min_shift_px : float
+        ... when it differs from the set-up's horizon by more than this, px per 720 rows ...
+    lines_sigmas : float
+        ... and by more than this many of the median's expected error (one frame in five counted
+        as a new look at the road).
 
     Examples
     --------
@@ -1126,6 +1145,12 @@ class SelfCalConfig(_Section):
     unsure_parallel_diff_m: Annotated[float, Field(gt=0, le=20)] = 5.0
     unsure_curvature_diff: Annotated[float, Field(gt=0, le=1)] = 0.008
     unsure_radius_m: Annotated[float, Field(ge=0, le=100_000)] = 300.0
+    lines_horizon: bool = True
+    lines_min_frames: Annotated[int, Field(ge=1, le=100_000)] = 100
+    lines_window_frames: Annotated[int, Field(ge=1, le=100_000)] = 1500
+    lines_max_spread_px: Annotated[float, Field(gt=0, le=100)] = 8.0
+    lines_min_shift_px: Annotated[float, Field(ge=0, le=100)] = 1.5
+    lines_sigmas: Annotated[float, Field(ge=0, le=100)] = 2.0
 
     @model_validator(mode="after")
     def _check_heights(self) -> SelfCalConfig:

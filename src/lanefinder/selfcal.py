@@ -9,6 +9,11 @@ lane changes refused, curved frames refused, see :func:`lanefinder.autosetup.est
 once ``min_frames`` are in, and again as more come.  An estimate replaces the set-up in use
 only when it reads the road differently by more than the ``change_*`` limits
 (:func:`lanefinder.evaluate.setup_error`), so a set-up that is right stays exactly as it is.
+
+The lane lines the pipeline measures tell the pitch too: where their near parts meet is the
+horizon on a flat road.  :meth:`SelfCalibrator.offer_lines` keeps that row for each frame with
+both lines measured, and once enough frames agree (``selfcal.lines_*``) the set-up in use, and
+every later estimate, is pitched to their median.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -29,6 +34,7 @@ from .autosetup import (
     estimate_road,
     frame_evidence,
     road_from_lines,
+    straight_fits,
     view_from_estimate,
 )
 from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
@@ -51,8 +57,9 @@ class SetupState:
     source : str
         ``config`` (given by the config), ``default`` (self-calibration has no estimate yet),
         ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
-        until an estimate) or ``estimated`` (self-calibration's estimate is in use, or confirmed
-        the set-up).
+        until an estimate), ``lines`` (no estimate yet; the set-up in use pitched to where the
+        lane lines measured meet: :meth:`SelfCalibrator.offer_lines`) or ``estimated``
+        (self-calibration's estimate is in use, or confirmed the set-up).
     frames : int
         Accepted frames the last estimate rests on.
     updates : int
@@ -188,12 +195,15 @@ class SelfCalibrator:
         self.last_verdict = ""
         self._seen = 0
         self._new = 0
+        self._horizons: deque = deque(maxlen=self.cfg.lines_window_frames)
+        self._horizon_of: tuple[BirdsEye, float] | None = None  # a set-up and its horizon row, once needed
+        self._lines_taken = 0
         self.state = SetupState.of("default", current)
 
     @property
     def searching(self) -> bool:
         """True while there is no sure estimate and the next frame is among the first ``fast_frames``."""
-        return self.state.source in ("default", "first-frame") and self._seen < self.cfg.fast_frames
+        return self.state.source in ("default", "first-frame", "lines") and self._seen < self.cfg.fast_frames
 
     def first_look(self, frame: np.ndarray, prefer: Callable[[BirdsEye], bool] | None = None) -> BirdsEye | None:
         """Look at a video's first frame alone, as a still is, for a set-up to use until the estimate.
@@ -279,6 +289,115 @@ class SelfCalibrator:
         self._new = 0
         return self._estimate()
 
+    def lines_horizon(self) -> float:
+        """Give the horizon where the lane lines measured so far meet, or NaN when they do not tell it.
+
+        The median of the rows where the near parts of the two lines measured on each frame
+        meet (:meth:`offer_lines`), once ``selfcal.lines_min_frames`` frames have given one and
+        while those rows spread no more than ``selfcal.lines_max_spread_px`` (per 720 rows; a
+        winding or hilly road moves where its lines meet).
+
+        Returns
+        -------
+        float
+            The row, undistorted frame pixels, or NaN.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> be = LaneFinder().birdseye((1280, 720))
+        >>> SelfCalibrator(Config(), be.camera, be).lines_horizon()
+        nan
+        """
+        stats = self._lines_stats()
+        return math.nan if stats is None else stats[0]
+
+    def _lines_stats(self) -> tuple[float, float] | None:
+        """Give the median of the lines' horizons and its expected error (px), or None (see :meth:`lines_horizon`)."""
+        if len(self._horizons) < max(1, self.cfg.lines_min_frames):
+            return None
+        q25, median, q75 = np.percentile(np.asarray(self._horizons), [25, 50, 75])
+        spread = float(q75 - q25) / 1.349  # a standard deviation robust to outliers (and not fooled by two modes)
+        if spread > self.cfg.lines_max_spread_px * self.current.frame_size[1] / 720:
+            return None
+        # Frames in a row see much the same stretch of road: one in LINES_CORRELATED_FRAMES counts as a new look.
+        return float(median), 1.2533 * spread / math.sqrt(max(1.0, len(self._horizons) / LINES_CORRELATED_FRAMES))
+
+    def offer_lines(self, left: LinePixels, right: LinePixels, curvature_per_m: float) -> BirdsEye | None:
+        """Take the lane lines measured on a frame; give a new set-up when where they meet says so.
+
+        On a flat road the near parts of a lane's two lines meet on the horizon, straight or
+        gently curving (:func:`lanefinder.autosetup.road_from_lines`); a set-up pitched wrong shows
+        them closing or parting in the view, and the fit's pull towards a shared shape then bends
+        the weaker line off its paint.  Each frame with both lines measured on a road read as no
+        tighter than ``selfcal.skip_radius_m`` gives that row (the last
+        ``selfcal.lines_window_frames`` are kept), and :meth:`lines_horizon` their median, weighed
+        once every ``LINES_CORRELATED_FRAMES`` rows.  The set-up in use is pitched towards it (its
+        camera height and yaw kept) when they differ by more than ``selfcal.lines_min_shift_px``
+        (per 720 rows) and by more than ``selfcal.lines_sigmas`` of the median's expected error,
+        and by no more than ``LINES_MAX_SHIFT`` of the frame's height; by at most
+        ``LINES_MIN_SHIFT`` of it at a time, so the caller may keep its track (the pipeline does).
+        ``state.source`` becomes ``lines`` unless the set-up in use is an estimate; an estimate
+        made later (:meth:`offer`) takes the lines' horizon too.
+
+        Parameters
+        ----------
+        left, right : LinePixels
+            The two lines' pixels measured on the frame, in the view of the set-up in use.
+        curvature_per_m : float
+            The lane's curvature read on the frame, 1/m (NaN: the frame is not taken).
+
+        Returns
+        -------
+        BirdsEye or None
+            The set-up to use from now on, or None to keep the current one.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> from lanefinder.search import LinePixels
+        >>> be = LaneFinder().birdseye((1280, 720))
+        >>> cal = SelfCalibrator(Config(), be.camera, be)
+        >>> y = np.arange(100.0, 300.0)
+        >>> cal.offer_lines(LinePixels(x=np.full(200, 125.0), y=y), LinePixels(x=np.full(200, 275.0), y=y), 0.0)
+        >>> len(cal._horizons), cal.state.source  # one frame, parallel lines: nothing to change
+        (1, 'default')
+        """
+        if not (self.cfg.lines_horizon and abs(curvature_per_m) * self.cfg.skip_radius_m <= 1):
+            return None
+        pts = _near_points(self.current, left, right)
+        if pts is None:
+            return None
+        try:
+            _, row = straight_fits(pts[0], pts[1], SetupOptions().bottom_fraction * (self.current.frame_size[1] - 1))
+        except LaneFinderError:
+            return None
+        self._horizons.append(row)
+        self._lines_taken += 1
+        if self._lines_taken % LINES_CORRELATED_FRAMES:  # weighed again once per new look at the road
+            return None
+        stats = self._lines_stats()
+        if stats is None:
+            return None
+        median, sigma = stats
+        if self._horizon_of is None or self._horizon_of[0] is not self.current:
+            self._horizon_of = (self.current, setup_of(self.current)[0])
+        shift = median - self._horizon_of[1]
+        h = self.current.frame_size[1]
+        least = max(self.cfg.lines_min_shift_px * h / 720, self.cfg.lines_sigmas * sigma)
+        if not least < abs(shift) <= LINES_MAX_SHIFT * h:
+            return None
+        # At most LINES_MIN_SHIFT of the frame's height at a time: the pipeline keeps its track across it.
+        step = float(np.clip(shift, -LINES_MIN_SHIFT * h, LINES_MIN_SHIFT * h))
+        new = _pitched(self.current, self._horizon_of[1] + step)
+        if new is None:
+            return None
+        self.current = new
+        source = "estimated" if self.state.source == "estimated" else "lines"
+        self.state = SetupState.of(source, new, frames=self.state.frames, updates=self.state.updates + 1,
+                                   quality=self.state.quality)
+        return new
+
     def _estimate(self) -> BirdsEye | None:
         try:
             est = estimate_road([e for e, _ in self._frames], {e.index: g for e, g in self._frames}, self.work,
@@ -286,6 +405,13 @@ class SelfCalibrator:
             b, k_full, quality = view_from_estimate(est, self.current.frame_size, self.opts)
         except LaneFinderError:
             return None
+        lines = self.lines_horizon()
+        if math.isfinite(lines):  # the lane lines measured tell the pitch better than the frames' vanishing points
+            est = replace(est, vp=(est.vp[0], (lines + 0.5) * self.scale - 0.5))
+            try:
+                b, k_full, _ = view_from_estimate(est, self.current.frame_size, self.opts)
+            except LaneFinderError:
+                return None
         cam = self.camera if self._k is not None else CameraModel.ideal(self.current.frame_size,
                                                                         focal_px=float(k_full[0, 0]))
         be = make_birdseye(cam, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
@@ -447,10 +573,11 @@ def horizon_setup(current: BirdsEye, horizon_px: float, config: Config | None = 
     cfg = (config or Config()).selfcal
     if not math.isfinite(horizon_px):
         return None
-    est = RoadEstimate(camera_matrix=current.camera.camera_matrix, vp=(src_vanishing_point(current.src_px)[0],
-                       float(horizon_px)), height_m=setup_of(current)[1], centre_m=0.0, focal_source="camera file",
-                       evidence=())
-    return _still_setup_from(current, est, cfg)
+    h = current.frame_size[1]
+    if not LINES_MIN_SHIFT * h < abs(horizon_px - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
+        return None
+    new = _pitched(current, horizon_px)
+    return new if new is not None and _plausible_for_a_still(current, new, setup_of(current)[1], cfg) else None
 
 
 def _still_setup_from(current: BirdsEye, est: RoadEstimate, cfg: SelfCalConfig) -> BirdsEye | None:
@@ -476,6 +603,8 @@ def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cf
     return low <= height_m <= high and not abs(setup_error(current, new)["car_m"]) > cfg.still_max_car_m
 
 
+#: Frames in a row that :meth:`SelfCalibrator.offer_lines` counts as one look at the road.
+LINES_CORRELATED_FRAMES = 5
 #: The near part of the view whose line pixels :func:`lines_setup` reads the road from (a
 #: fraction of the view's height, from its bottom: about 18 m of a 30 m view).
 LINES_NEAR_FRACTION = 0.6
@@ -533,6 +662,12 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
     (11, 0.87)
     """
     cfg = (config or Config()).selfcal
+    est = _near_lines_estimate(current, left, right)
+    return None if est is None else _still_setup_from(current, est, cfg)
+
+
+def _near_points(current: BirdsEye, left: LinePixels, right: LinePixels) -> list[np.ndarray] | None:
+    """Give the pixels of two lines within ``LINES_NEAR_FRACTION`` of a view's bottom, undistorted; None when few."""
     h_view = current.size[1]
     pts = []
     for line in (left, right):
@@ -540,11 +675,30 @@ def lines_setup(current: BirdsEye, left: LinePixels, right: LinePixels,
         if np.count_nonzero(near) < 10:
             return None
         pts.append(current.to_undistorted(np.column_stack([line.x[near], line.y[near]])))
+    return pts
+
+
+def _near_lines_estimate(current: BirdsEye, left: LinePixels, right: LinePixels) -> RoadEstimate | None:
+    """Read the road from the near parts of two lines' pixels in a set-up's view (see :func:`lines_setup`)."""
+    pts = _near_points(current, left, right)
+    if pts is None:
+        return None
     opts = SetupOptions()
     bottom_px = opts.bottom_fraction * (current.frame_size[1] - 1)
     try:
-        est = road_from_lines(pts[0], pts[1], current.camera.camera_matrix, bottom_px, opts.lane_width_m,
-                              vp_x=src_vanishing_point(current.src_px)[0])
+        return road_from_lines(pts[0], pts[1], current.camera.camera_matrix, bottom_px, opts.lane_width_m,
+                               vp_x=src_vanishing_point(current.src_px)[0])
     except LaneFinderError:
         return None
-    return _still_setup_from(current, est, cfg)
+
+
+def _pitched(current: BirdsEye, horizon_px: float) -> BirdsEye | None:
+    """Give the set-up in use pitched to another horizon row, its camera height and yaw kept (no gates)."""
+    est = RoadEstimate(camera_matrix=current.camera.camera_matrix, vp=(src_vanishing_point(current.src_px)[0],
+                       float(horizon_px)), height_m=setup_of(current)[1], centre_m=0.0, focal_source="camera file",
+                       evidence=())
+    try:
+        b, _, _ = view_from_estimate(est, current.frame_size, SetupOptions())
+    except LaneFinderError:
+        return None
+    return make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)

@@ -206,6 +206,10 @@ def _setup_lines(st: SetupState) -> list[str]:
         return [f"set-up: self-calibration found too few straight-road frames; the set-up the first frame gave "
                 f"alone was used: horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road "
                 "(run `lanefinder setup` for this camera)"]
+    if st.source == "lines":
+        return ["set-up: self-calibration found too few straight-road frames; the starting set-up was used, "
+                f"pitched to where the lane lines measured meet: horizon row {st.horizon_px:.0f} px, camera "
+                f"{st.height_m:.2f} m over the road (run `lanefinder setup` for this camera)"]
     q = st.quality
     of = (f" ({q.frames_offered} offered, {q.frames_offered - st.frames} refused as outliers or curving)"
           if q is not None and q.frames_offered > st.frames else "")
