@@ -592,3 +592,11 @@ def test_a_video_whose_frames_give_no_estimate_is_pitched_by_its_lane_lines():
     # Measured: pitched at frame 100 (lines_min_frames: every frame had both lines), 0.01 px from the truth.
     assert 100 <= first <= 105 and abs(horizon - true_horizon) < 1.0
     assert set(runs[False][0]) == {"default"} and runs[False][1] == default
+
+
+def test_a_lines_horizon_that_could_never_be_given_is_refused_in_the_config():
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match="lines_min_frames"):
+        Config.model_validate({"selfcal": {"lines_min_frames": 2000, "lines_window_frames": 1500}})
+    assert Config.model_validate({"selfcal": {"lines_min_frames": 50, "lines_window_frames": 50}})

@@ -1156,6 +1156,9 @@ class SelfCalConfig(_Section):
     def _check_heights(self) -> SelfCalConfig:
         if self.still_height_m[0] > self.still_height_m[1]:
             raise ValueError("still_height_m must be (lowest, highest)")
+        if self.lines_min_frames > self.lines_window_frames:
+            raise ValueError(f"lines_min_frames ({self.lines_min_frames}) must not exceed lines_window_frames "
+                             f"({self.lines_window_frames}): only that many rows are kept")
         return self
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from contextlib import suppress
 from dataclasses import dataclass, replace
 
 import cv2
@@ -332,13 +333,15 @@ class SelfCalibrator:
         the weaker line off its paint.  Each frame with both lines measured on a road read as no
         tighter than ``selfcal.skip_radius_m`` gives that row (the last
         ``selfcal.lines_window_frames`` are kept), and :meth:`lines_horizon` their median, weighed
-        once every ``LINES_CORRELATED_FRAMES`` rows.  The set-up in use is pitched towards it (its
-        camera height and yaw kept) when they differ by more than ``selfcal.lines_min_shift_px``
-        (per 720 rows) and by more than ``selfcal.lines_sigmas`` of the median's expected error,
-        and by no more than ``LINES_MAX_SHIFT`` of the frame's height; by at most
-        ``LINES_MIN_SHIFT`` of it at a time, so the caller may keep its track (the pipeline does).
-        ``state.source`` becomes ``lines`` unless the set-up in use is an estimate; an estimate
-        made later (:meth:`offer`) takes the lines' horizon too.
+        once every ``LINES_CORRELATED_FRAMES`` rows.  The set-up in use is pitched towards it when
+        they differ by more than ``selfcal.lines_min_shift_px`` (per 720 rows) and by more than
+        ``selfcal.lines_sigmas`` of the median's expected error, and by no more than
+        ``LINES_MAX_SHIFT`` of the frame's height; by at most ``LINES_STEP`` of it at a time, so
+        the caller may keep its track (the pipeline does).  Its camera height and yaw are kept,
+        the view rebuilt around the camera as self-calibration builds one.  Each step counts as
+        an update of the set-up; ``state.source`` becomes ``lines`` unless the set-up in use is
+        an estimate.  An estimate made later (:meth:`offer`) takes the lines' horizon too, while
+        :meth:`lines_horizon` gives one within ``LINES_MAX_SHIFT`` of the frames' own.
 
         Parameters
         ----------
@@ -387,9 +390,9 @@ class SelfCalibrator:
         least = max(self.cfg.lines_min_shift_px * h / 720, self.cfg.lines_sigmas * sigma)
         if not least < abs(shift) <= LINES_MAX_SHIFT * h:
             return None
-        # At most LINES_MIN_SHIFT of the frame's height at a time: the pipeline keeps its track across it.
-        step = float(np.clip(shift, -LINES_MIN_SHIFT * h, LINES_MIN_SHIFT * h))
-        new = _pitched(self.current, self._horizon_of[1] + step)
+        # At most LINES_STEP of the frame's height at a time: the pipeline keeps its track across it.
+        to = self._horizon_of[1] + float(np.clip(shift, -LINES_STEP * h, LINES_STEP * h))
+        new = _pitched(self.current, to)
         if new is None:
             return None
         self.current = new
@@ -405,13 +408,12 @@ class SelfCalibrator:
             b, k_full, quality = view_from_estimate(est, self.current.frame_size, self.opts)
         except LaneFinderError:
             return None
-        lines = self.lines_horizon()
-        if math.isfinite(lines):  # the lane lines measured tell the pitch better than the frames' vanishing points
-            est = replace(est, vp=(est.vp[0], (lines + 0.5) * self.scale - 0.5))
-            try:
-                b, k_full, _ = view_from_estimate(est, self.current.frame_size, self.opts)
-            except LaneFinderError:
-                return None
+        lines = (self.lines_horizon() + 0.5) * self.scale - 0.5  # working pixels
+        if abs(lines - est.vp[1]) <= LINES_MAX_SHIFT * self.work[1]:  # NaN: none
+            # The lane lines measured tell the pitch better than the frames' vanishing points.
+            pitched = replace(est, vp=(est.vp[0], lines))
+            with suppress(LaneFinderError):  # else the frames' own reading stays
+                b, k_full, _ = view_from_estimate(pitched, self.current.frame_size, self.opts)
         cam = self.camera if self._k is not None else CameraModel.ideal(self.current.frame_size,
                                                                         focal_px=float(k_full[0, 0]))
         be = make_birdseye(cam, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
@@ -605,6 +607,9 @@ def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cf
 
 #: Frames in a row that :meth:`SelfCalibrator.offer_lines` counts as one look at the road.
 LINES_CORRELATED_FRAMES = 5
+#: The most :meth:`SelfCalibrator.offer_lines` pitches a video's set-up at a time, a fraction of the
+#: frame's height (10 px at 720p: the track is kept across it).
+LINES_STEP = 1 / 72
 #: The near part of the view whose line pixels :func:`lines_setup` reads the road from (a
 #: fraction of the view's height, from its bottom: about 18 m of a 30 m view).
 LINES_NEAR_FRACTION = 0.6
@@ -693,7 +698,11 @@ def _near_lines_estimate(current: BirdsEye, left: LinePixels, right: LinePixels)
 
 
 def _pitched(current: BirdsEye, horizon_px: float) -> BirdsEye | None:
-    """Give the set-up in use pitched to another horizon row, its camera height and yaw kept (no gates)."""
+    """Give the set-up in use pitched to another horizon row, its camera height and yaw kept (no gates).
+
+    The view is built as self-calibration builds one (:func:`lanefinder.autosetup.view_from_estimate`),
+    centred on the camera.
+    """
     est = RoadEstimate(camera_matrix=current.camera.camera_matrix, vp=(src_vanishing_point(current.src_px)[0],
                        float(horizon_px)), height_m=setup_of(current)[1], centre_m=0.0, focal_source="camera file",
                        evidence=())

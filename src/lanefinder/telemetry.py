@@ -4,9 +4,9 @@ Fields (stable names; list-valued fields are JSON arrays, also inside CSV cells)
 time_s, state, left_found, right_found, left_inferred, right_inferred, left_conf, right_conf,
 radius_m, curvature_per_m, offset_m, width_m, misses, left_fit_m, right_fit_m, left_fit_px,
 right_fit_px, h_samples, left_x, right_x, left_range_m, right_range_m, left_x_conf, right_x_conf,
-setup (config, default, first-frame, lines, estimated, or horizon for a still: see :mod:`lanefinder.selfcal`),
-horizon_px and
-camera_height_m (the set-up in use: its horizon row and the camera height it implies), and checks
+setup (config, default, first-frame, lines, estimated, or for a still horizon and lines: see
+:mod:`lanefinder.selfcal`), horizon_px and camera_height_m (the set-up in use: its horizon row and
+the camera height it implies), and checks
 (the named checks that refused a line or a lane that frame, comma-separated, empty when none:
 :attr:`lanefinder.lane.LaneResult.checks`; files written before it have no such column).
 
