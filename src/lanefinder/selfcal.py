@@ -197,7 +197,6 @@ class SelfCalibrator:
         self._seen = 0
         self._new = 0
         self._horizons: deque = deque(maxlen=self.cfg.lines_window_frames)
-        self._horizon_of: tuple[BirdsEye, float] | None = None  # a set-up and its horizon row, once needed
         self._lines_taken = 0
         self.state = SetupState.of("default", current)
 
@@ -372,7 +371,7 @@ class SelfCalibrator:
         if pts is None:
             return None
         try:
-            _, row = straight_fits(pts[0], pts[1], SetupOptions().bottom_fraction * (self.current.frame_size[1] - 1))
+            _, row = straight_fits(pts[0], pts[1], self.opts.bottom_fraction * (self.current.frame_size[1] - 1))
         except LaneFinderError:
             return None
         self._horizons.append(row)
@@ -383,15 +382,14 @@ class SelfCalibrator:
         if stats is None:
             return None
         median, sigma = stats
-        if self._horizon_of is None or self._horizon_of[0] is not self.current:
-            self._horizon_of = (self.current, setup_of(self.current)[0])
-        shift = median - self._horizon_of[1]
+        now = self.state.horizon_px  # the set-up in use's: the state is always made from it
+        shift = median - now
         h = self.current.frame_size[1]
         least = max(self.cfg.lines_min_shift_px * h / 720, self.cfg.lines_sigmas * sigma)
         if not least < abs(shift) <= LINES_MAX_SHIFT * h:
             return None
         # At most LINES_STEP of the frame's height at a time: the pipeline keeps its track across it.
-        to = self._horizon_of[1] + float(np.clip(shift, -LINES_STEP * h, LINES_STEP * h))
+        to = now + float(np.clip(shift, -LINES_STEP * h, LINES_STEP * h))
         new = _pitched(self.current, to)
         if new is None:
             return None
