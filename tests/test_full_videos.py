@@ -66,10 +66,11 @@ def test_challenge_video_holds_the_lane(tmp_path):
     assert st["frames"] == 484  # the file holds 485; the last one does not decode
     assert st["lost_pct"] == 0
     assert st["both_seen_pct"] > 94  # measured: see the closing note; the bar is 98%
-    # Against the 20 hand-labelled frames: measured accuracy 0.9102, one line off (frame 127, 0.61 m);
+    # Against the 20 hand-labelled frames: measured accuracy 0.9273, one line off (frame 127, 0.61 m);
+    # 0.9102 before the second look for faint paint beside a held lane (faint_pair_confidence),
     # 0.8914 before the lane lines pitched the set-up (selfcal.lines_horizon, at frame 167).
     lab = _labelled("challenge_video", st["rows"])
-    assert lab["shown"] == 20 and lab["accuracy"] > 0.90 and len(lab["off_frames"]) <= 1
+    assert lab["shown"] == 20 and lab["accuracy"] > 0.92 and len(lab["off_frames"]) <= 1
 
 
 def test_harder_challenge_video_shows_a_lane_on_nine_frames_in_ten(tmp_path):

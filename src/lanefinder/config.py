@@ -387,6 +387,10 @@ class RidgeConfig(_Section):
         are taken when each is at least ``faint_confidence`` sure; 255 turns it off.
     faint_confidence : float
         The least confidence (0-1) of a line the second look finds.
+    faint_pair_confidence : float
+        The second look also runs where a lane is held and only one line is at least
+        ``tracking.min_confidence`` sure; it is taken when it finds both lines, each at least
+        this sure (0-1; above 1 turns that off).
     yellow_min_contrast : int
         Least yellowness (red - blue) above the road on both sides.
     yellow_min : int
@@ -410,6 +414,7 @@ class RidgeConfig(_Section):
     rel_contrast_max: Byte = 255
     faint_contrast_max: Byte = 16
     faint_confidence: Fraction = 0.4
+    faint_pair_confidence: Annotated[float, Field(ge=0, le=2)] = 0.6
     yellow_min_contrast: Byte = 18
     yellow_min: Byte = 30
     noise_factor: Annotated[float, Field(ge=0, le=20)] = 5.0

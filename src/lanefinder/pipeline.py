@@ -758,8 +758,12 @@ class LaneFinder:
 
         With ``view``, a frame whose binary gives no line at least ``tracking.min_confidence``
         sure is thresholded again for faint paint (``threshold.ridge.faint_contrast_max``), and
-        that binary replaces ``binary`` when its lines are taken (the result's debug binary is
-        the one used).  The far field is thresholded as before.
+        that binary replaces ``binary`` when its lines are taken, each at least
+        ``threshold.ridge.faint_confidence`` sure (the result's debug binary is the one used).
+        So is a frame with one line that sure while a lane is held, when the second look finds
+        both lines, each at least ``threshold.ridge.faint_pair_confidence`` sure (worn paint on
+        one side: the held lane's width would otherwise stand in for the line).  The far field
+        is thresholded as before.
 
         Parameters
         ----------
@@ -782,14 +786,19 @@ class LaneFinder:
         m = measurer or self.measurer
         binary, px = self._without_streaks(binary, be)
         measured = measure(binary, view, self.track, m, px)
-        if (view is not None and max(_confidences(measured)) < self.config.tracking.min_confidence
+        ridge = self.config.threshold.ridge
+        sure = sum(c >= self.config.tracking.min_confidence for c in _confidences(measured))
+        # The least confidence of each line a second look must find: with no line to take, any
+        # line it finds; with a held lane and one line sure, the other line too.
+        bar = ridge.faint_confidence if sure == 0 else ridge.faint_pair_confidence
+        if (view is not None and (sure == 0 or (sure == 1 and self.track.has_lane and bar <= 1))
                 and (faint := self._faint_threshold()) is not None):
-            # No line to take: a second look for faint paint (worn paint on light concrete), whose
-            # lines are taken when each it finds is at least faint_confidence sure.
+            # A second look for faint paint (worn paint on light concrete), taken when it finds
+            # more lines than the first look was sure of, each at least ``bar`` sure.
             binary2, px2 = self._without_streaks(threshold(view, faint, be.xm_per_px), be)
             again = measure(binary2, view, self.track, m, px2)
             found = [c for c in _confidences(again) if c > 0]
-            if found and min(found) >= self.config.threshold.ridge.faint_confidence:
+            if len(found) > sure and min(found) >= bar:
                 measured, binary = again, binary2
         self.track, verdict = step(self.track, measured.lines, measured.blind, m.rules)
         self._last_search = measured.search
