@@ -384,13 +384,15 @@ class RidgeConfig(_Section):
         ``tracking.min_confidence`` sure), the view is thresholded again
         with ``rel_contrast_max`` at this (worn paint on light concrete is only 15-25 grey
         levels lighter than the road, less than ``rel_contrast`` of it), and the lines it finds
-        are taken when each is at least ``faint_confidence`` sure; 255 turns it off.
+        are taken when each is at least ``faint_confidence`` sure; 255 turns it off.  Beside a
+        held lane it also runs where one line is missing: see ``faint_pair_confidence``.
     faint_confidence : float
         The least confidence (0-1) of a line the second look finds.
     faint_pair_confidence : float
         The second look also runs where a lane is held and only one line is at least
         ``tracking.min_confidence`` sure; it is taken when it finds both lines, each at least
-        this sure (0-1; above 1 turns that off).
+        this sure (and at least ``tracking.min_confidence``), and then measures both lines
+        (at most 2; above 1 turns that off).
     yellow_min_contrast : int
         Least yellowness (red - blue) above the road on both sides.
     yellow_min : int

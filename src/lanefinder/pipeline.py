@@ -790,7 +790,9 @@ class LaneFinder:
         sure = sum(c >= self.config.tracking.min_confidence for c in _confidences(measured))
         # The least confidence of each line a second look must find: with no line to take, any
         # line it finds; with a held lane and one line sure, the other line too.
-        bar = ridge.faint_confidence if sure == 0 else ridge.faint_pair_confidence
+        # (beside a held lane never below min_confidence: the tracker would refuse its lines)
+        bar = ridge.faint_confidence if sure == 0 else max(ridge.faint_pair_confidence,
+                                                           self.config.tracking.min_confidence)
         if (view is not None and (sure == 0 or (sure == 1 and self.track.has_lane and bar <= 1))
                 and (faint := self._faint_threshold()) is not None):
             # A second look for faint paint (worn paint on light concrete), taken when it finds
