@@ -1083,6 +1083,15 @@ class SelfCalConfig(_Section):
         set-up was not kept, is found again with the
         set-up the near parts of its lines give (:func:`lanefinder.selfcal.lines_setup`), and
         that result is kept when it has a lane and its lines are no less sure.
+    estimate_check : bool
+        A sure estimate that would replace the set-up in use is first tried on the frame it
+        came with: that frame is found blind with each set-up, and the estimate is refused (the
+        set-up in use stays, as if confirmed) when the set-up in use shows a lane whose lines'
+        mean confidence is higher by more than ``estimate_check_margin``, or the estimate shows
+        none (a few frames' vanishing points, read off the edges of tree shadows, put the horizon
+        30-40 px off on synthetic unknown mounts) ...
+    estimate_check_margin : float
+        ... that margin (0-1).
     first_frame : bool
         A video's first frame is looked at alone, as a still is (its own set-up, the still
         gates, else its horizon's set-up as ``still_horizon`` says), and the set-up it gives
@@ -1147,6 +1156,8 @@ class SelfCalConfig(_Section):
     still_horizon: bool = True
     still_horizon_margin: Fraction = 0.05
     still_lines: bool = True
+    estimate_check: bool = True
+    estimate_check_margin: Fraction = 0.2
     first_frame: bool = True
     unsure_parallel: Fraction = 0.0
     unsure_parallel_diff_m: Annotated[float, Field(gt=0, le=20)] = 5.0

@@ -163,7 +163,9 @@ class SelfCalibrator:
         or not it was taken; None before the first.
     last_verdict : str
         What became of it: ``taken`` (it replaced the set-up in use), ``confirms`` (sure, and
-        reading the road as the set-up in use does) or ``unsure`` (neither); empty before the first.
+        reading the road as the set-up in use does), ``refused`` (sure and reading it otherwise,
+        but the frame it came with looked worse with it: see :meth:`offer`) or ``unsure`` (none
+        of these); empty before the first.
 
     Examples
     --------
@@ -254,7 +256,8 @@ class SelfCalibrator:
             img = cv2.remap(img, self._maps[0], self._maps[1], cv2.INTER_LINEAR)
         return img
 
-    def offer(self, frame: np.ndarray, curvature_per_m: float = math.nan) -> BirdsEye | None:
+    def offer(self, frame: np.ndarray, curvature_per_m: float = math.nan,
+              judge: Callable[[BirdsEye, BirdsEye], bool] | None = None) -> BirdsEye | None:
         """Look at a frame (when it is its turn); give a new set-up when one should replace the current.
 
         Parameters
@@ -264,6 +267,11 @@ class SelfCalibrator:
         curvature_per_m : float, optional
             The lane's curvature as the pipeline read it in this frame, 1/m (NaN: unknown); a
             frame curving tighter than ``selfcal.skip_radius_m`` is not looked at.
+        judge : callable, optional
+            Given the set-up in use and a sure estimate that would replace it, tells whether
+            ``frame`` is seen better with the set-up in use; then the estimate is refused and
+            the set-up in use stays, as if the estimate had confirmed it (``last_verdict`` =
+            ``refused``).  The pipeline judges as ``selfcal.estimate_check`` says.
 
         Returns
         -------
@@ -287,7 +295,7 @@ class SelfCalibrator:
         if len(self._frames) < self.cfg.min_frames or self._new < need:
             return None
         self._new = 0
-        return self._estimate()
+        return self._estimate(judge)
 
     def lines_horizon(self) -> float:
         """Give the horizon where the lane lines measured so far meet, or NaN when they do not tell it.
@@ -399,7 +407,7 @@ class SelfCalibrator:
                                    quality=self.state.quality)
         return new
 
-    def _estimate(self) -> BirdsEye | None:
+    def _estimate(self, judge: Callable[[BirdsEye, BirdsEye], bool] | None = None) -> BirdsEye | None:
         try:
             est = estimate_road([e for e, _ in self._frames], {e.index: g for e, g in self._frames}, self.work,
                                 self._k, self.opts, self.scale)
@@ -424,13 +432,16 @@ class SelfCalibrator:
         # ... and the estimate must itself be surer than the limits (twisty roads give wide spreads).
         sure_enough = quality.xm_error_pct <= self.cfg.change_xm_pct and quality.car_error_m <= self.cfg.change_car_m
         differs = differs and sure_enough
+        refused = differs and judge is not None and judge(self.current, be)
+        differs = differs and not refused
         updates = self.state.updates + differs
         use = be if differs else self.current
         # An estimate not sure enough neither replaces nor confirms the set-up: the source stays.
         source = "estimated" if sure_enough else self.state.source
         self.state = SetupState.of(source, use, frames=quality.frames_used, updates=updates, quality=quality)
         self.last_estimate = SetupState.of("estimated", be, frames=quality.frames_used, quality=quality)
-        self.last_verdict = "taken" if differs else "confirms" if sure_enough else "unsure"
+        self.last_verdict = ("taken" if differs else "refused" if refused else "confirms" if sure_enough
+                             else "unsure")
         if differs:
             self.current = be
             return be
