@@ -8,7 +8,9 @@ straight (no curvature gate: the pipeline skips frames it reads as curving tight
 ``selfcal.skip_radius_m``); a LAST past the video's end offers frames to its end. Prints every
 estimate it makes (frame, the frames it rests on, horizon row, camera height, expected errors,
 and whether it was taken, confirmed the set-up in use or was not sure enough), then the set-up
-in use at the end against the one the config starts from. On a hilly road an estimate resting
+in use at the end against the one the config starts from. The pipeline's frame check
+(``selfcal.estimate_check``: an estimate refused when the frame it came with looks worse with it)
+is not made here, so an estimate shown as taken may be refused in a run. On a hilly road an estimate resting
 on a few frames of one slope can move the horizon by tens of pixels (see README, Known
 limitations):
 
@@ -74,6 +76,7 @@ def probe(video: Path, first: int, last: int, config: Path | None) -> int:
         if est is not None and est is not before and est.quality is not None:
             q = est.quality
             what = {"taken": "taken", "confirms": "confirms the set-up in use",
+                    "refused": "refused by the frame check: the set-up in use stays",
                     "unsure": "not sure enough: the set-up in use stays"}[cal.last_verdict]
             print(f"frame {f.index}: an estimate on {q.frames_used} frame{'s' * (q.frames_used != 1)}: horizon row "
                   f"{est.horizon_px:.1f}, camera {est.height_m:.2f} m over the road (expected error xm "

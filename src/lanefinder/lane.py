@@ -118,7 +118,9 @@ class LaneResult:
         has no estimate yet), ``first-frame`` (a video's first frame gave it alone, until the
         estimate), ``lines`` (in a video: the default or first frame's set-up pitched to where
         the lane lines measured meet, :meth:`lanefinder.selfcal.SelfCalibrator.offer_lines`),
-        ``estimated`` (see :mod:`lanefinder.selfcal`) or, for a still,
+        ``estimated`` (self-calibration's estimate, or the set-up in use once a sure estimate
+        confirmed it or was refused in its favour: :class:`lanefinder.selfcal.SetupState`) or,
+        for a still,
         ``horizon`` (the default pitched to where its road lines meet:
         :func:`lanefinder.selfcal.horizon_setup`) or ``lines`` (read from the lines found in
         it: :func:`lanefinder.selfcal.lines_setup`).

@@ -482,7 +482,7 @@ class LaneFinder:
         used = self.selfcal.state.source  # the set-up this frame was seen with (an estimate applies from the next)
         # A sure estimate is refused when this frame, found blind, shows a surer lane with the set-up in
         # use (synthetic unknown mounts, 50 frames: tuning seeds 0-10 0.8762 -> 0.8905).
-        judge = (lambda cur, other: self._seen_better(frame, other, cur, self.config.selfcal.estimate_check_margin)
+        judge = (lambda cur, est: self._seen_better(frame, est, cur, self.config.selfcal.estimate_check_margin)
                  ) if self.config.selfcal.estimate_check else None
         new = self.selfcal.offer(frame, self._curvature_per_m, judge)
         if new is not None:

@@ -60,7 +60,8 @@ class SetupState:
         ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
         until an estimate), ``lines`` (no estimate yet; the set-up in use pitched to where the
         lane lines measured meet: :meth:`SelfCalibrator.offer_lines`) or ``estimated``
-        (self-calibration's estimate is in use, or confirmed the set-up).
+        (self-calibration's estimate is in use, or a sure estimate confirmed the set-up in use
+        or was refused in its favour by the frame check, ``selfcal.estimate_check``).
     frames : int
         Accepted frames the last estimate rests on.
     updates : int
@@ -73,6 +74,8 @@ class SetupState:
         Its focal length, frame pixels.
     quality : SetupQuality or None
         The last estimate's quality.
+    refused : int
+        Sure estimates refused by the frame check (:meth:`SelfCalibrator.offer`'s ``judge``).
 
     Examples
     --------
@@ -87,6 +90,7 @@ class SetupState:
     height_m: float = math.nan
     focal_px: float = math.nan
     quality: SetupQuality | None = None
+    refused: int = 0
 
     @classmethod
     def of(cls, source: str, be: BirdsEye, **more) -> SetupState:
@@ -99,7 +103,7 @@ class SetupState:
         be : BirdsEye
             The set-up.
         **more
-            The other fields (``frames``, ``updates``, ``quality``).
+            The other fields (``frames``, ``updates``, ``quality``, ``refused``).
 
         Returns
         -------
@@ -268,10 +272,13 @@ class SelfCalibrator:
             The lane's curvature as the pipeline read it in this frame, 1/m (NaN: unknown); a
             frame curving tighter than ``selfcal.skip_radius_m`` is not looked at.
         judge : callable, optional
-            Given the set-up in use and a sure estimate that would replace it, tells whether
-            ``frame`` is seen better with the set-up in use; then the estimate is refused and
-            the set-up in use stays, as if the estimate had confirmed it (``last_verdict`` =
-            ``refused``).  The pipeline judges as ``selfcal.estimate_check`` says.
+            ``judge(current, estimate) -> bool``, called at most once per estimate and only for
+            a sure estimate that would replace the set-up in use: True when ``frame`` is seen
+            better with the set-up in use.  The estimate is then refused and the set-up in use
+            stays, as if the estimate had confirmed it (``last_verdict`` = ``refused``,
+            ``state.refused`` counts them; the fast looks end as after any sure estimate).  A
+            judge that raises :class:`LaneFinderError` refuses nothing.  The pipeline judges as
+            ``selfcal.estimate_check`` says.
 
         Returns
         -------
@@ -404,6 +411,7 @@ class SelfCalibrator:
         self.current = new
         source = "estimated" if self.state.source == "estimated" else "lines"
         self.state = SetupState.of(source, new, frames=self.state.frames, updates=self.state.updates + 1,
+                                   refused=self.state.refused,
                                    quality=self.state.quality)
         return new
 
@@ -432,13 +440,17 @@ class SelfCalibrator:
         # ... and the estimate must itself be surer than the limits (twisty roads give wide spreads).
         sure_enough = quality.xm_error_pct <= self.cfg.change_xm_pct and quality.car_error_m <= self.cfg.change_car_m
         differs = differs and sure_enough
-        refused = differs and judge is not None and judge(self.current, be)
+        refused = False
+        if differs and judge is not None:
+            with suppress(LaneFinderError):
+                refused = bool(judge(self.current, be))
         differs = differs and not refused
         updates = self.state.updates + differs
         use = be if differs else self.current
         # An estimate not sure enough neither replaces nor confirms the set-up: the source stays.
         source = "estimated" if sure_enough else self.state.source
-        self.state = SetupState.of(source, use, frames=quality.frames_used, updates=updates, quality=quality)
+        self.state = SetupState.of(source, use, frames=quality.frames_used, updates=updates, quality=quality,
+                                   refused=self.state.refused + refused)
         self.last_estimate = SetupState.of("estimated", be, frames=quality.frames_used, quality=quality)
         self.last_verdict = ("taken" if differs else "refused" if refused else "confirms" if sure_enough
                              else "unsure")

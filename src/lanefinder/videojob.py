@@ -213,11 +213,20 @@ def _setup_lines(st: SetupState) -> list[str]:
     q = st.quality
     of = (f" ({q.frames_offered} offered, {q.frames_offered - st.frames} refused as outliers or curving)"
           if q is not None and q.frames_offered > st.frames else "")
-    out = [f"set-up: self-calibrated from {st.frames} straight-road frames{of}, {st.updates} change(s) of the "
-           f"set-up in use: horizon row "
-           f"{st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length {st.focal_px:.0f} px"]
+    where = (f"horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length "
+             f"{st.focal_px:.0f} px")
+    if st.refused and not st.updates:
+        out = [f"set-up: the set-up the run started with was kept: {where}; {st.refused} sure estimate(s), the last "
+               f"from {st.frames} straight-road frames{of}, refused, the frame each came with showing the lane "
+               "surer with the set-up in use (selfcal.estimate_check)"]
+    else:
+        out = [f"set-up: self-calibrated from {st.frames} straight-road frames{of}, {st.updates} change(s) of the "
+               f"set-up in use: {where}"]
+        if st.refused:
+            out.append(f"set-up: {st.refused} sure estimate(s) refused, the frame each came with showing the lane "
+                       "surer with the set-up in use (selfcal.estimate_check)")
     if st.quality is not None:
-        out.append("set-up " + st.quality.lines()[2])
+        out.append("last estimate's " + st.quality.lines()[2])
     return out
 
 
