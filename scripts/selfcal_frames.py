@@ -76,7 +76,6 @@ def probe(video: Path, first: int, last: int, config: Path | None) -> int:
         if est is not None and est is not before and est.quality is not None:
             q = est.quality
             what = {"taken": "taken", "confirms": "confirms the set-up in use",
-                    "refused": "refused by the frame check: the set-up in use stays",
                     "unsure": "not sure enough: the set-up in use stays"}[cal.last_verdict]
             print(f"frame {f.index}: an estimate on {q.frames_used} frame{'s' * (q.frames_used != 1)}: horizon row "
                   f"{est.horizon_px:.1f}, camera {est.height_m:.2f} m over the road (expected error xm "

@@ -8,7 +8,9 @@ vanishing point, the ego lines, the camera height from the lane width.  The most
 lane changes refused, curved frames refused, see :func:`lanefinder.autosetup.estimate_road`)
 once ``min_frames`` are in, and again as more come.  An estimate replaces the set-up in use
 only when it reads the road differently by more than the ``change_*`` limits
-(:func:`lanefinder.evaluate.setup_error`), so a set-up that is right stays exactly as it is.
+(:func:`lanefinder.evaluate.setup_error`), so a set-up that is right stays exactly as it is,
+and, with ``selfcal.estimate_check``, when the frame it came with does not show the lane surer
+with the set-up in use (:meth:`SelfCalibrator.offer`'s ``judge``).
 
 The lane lines the pipeline measures tell the pitch too: where their near parts meet is the
 horizon on a flat road.  :meth:`SelfCalibrator.offer_lines` keeps that row for each frame with
@@ -276,7 +278,7 @@ class SelfCalibrator:
             a sure estimate that would replace the set-up in use: True when ``frame`` is seen
             better with the set-up in use.  The estimate is then refused and the set-up in use
             stays, as if the estimate had confirmed it (``last_verdict`` = ``refused``,
-            ``state.refused`` counts them; the fast looks end as after any sure estimate).  A
+            ``state.refused`` counts them; the fast looks end, as after any estimate).  A
             judge that raises :class:`LaneFinderError` refuses nothing.  The pipeline judges as
             ``selfcal.estimate_check`` says.
 
