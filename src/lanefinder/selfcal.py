@@ -598,11 +598,19 @@ def horizon_setup(current: BirdsEye, horizon_px: float, config: Config | None = 
     cfg = (config or Config()).selfcal
     if not math.isfinite(horizon_px):
         return None
-    h = current.frame_size[1]
-    if not LINES_MIN_SHIFT * h < abs(horizon_px - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
+    if not _still_shift(current, horizon_px):
         return None
     new = _pitched(current, horizon_px)
     return new if new is not None and _plausible_for_a_still(current, new, setup_of(current)[1], cfg) else None
+
+
+def _still_shift(current: BirdsEye, horizon_px: float) -> bool:
+    """Tell whether a still's horizon is far enough from ``current``'s to change it, and near enough to trust.
+
+    More than ``LINES_MIN_SHIFT`` and at most ``LINES_MAX_SHIFT`` of the frame's height away.
+    """
+    h = current.frame_size[1]
+    return LINES_MIN_SHIFT * h < abs(horizon_px - setup_of(current)[0]) <= LINES_MAX_SHIFT * h
 
 
 def _still_setup_from(current: BirdsEye, est: RoadEstimate, cfg: SelfCalConfig) -> BirdsEye | None:
@@ -611,15 +619,22 @@ def _still_setup_from(current: BirdsEye, est: RoadEstimate, cfg: SelfCalConfig) 
     None when its horizon is within ``LINES_MIN_SHIFT`` of the frame's height of ``current``'s or
     more than ``LINES_MAX_SHIFT`` from it, or when it fails a still's gates.
     """
-    w, h = current.frame_size
-    if not LINES_MIN_SHIFT * h < abs(est.vp[1] - setup_of(current)[0]) <= LINES_MAX_SHIFT * h:
+    if not _still_shift(current, est.vp[1]):
         return None
+    new = _setup_from(current, est)
+    return new if new is not None and _plausible_for_a_still(current, new, est.height_m, cfg) else None
+
+
+def _setup_from(current: BirdsEye, est: RoadEstimate) -> BirdsEye | None:
+    """Give the set-up a road estimate makes for ``current``'s camera, or None when it cannot be built.
+
+    Built as self-calibration builds one (:func:`lanefinder.autosetup.view_from_estimate`).
+    """
     try:
-        b, _, _ = view_from_estimate(est, (w, h), SetupOptions())
+        b, _, _ = view_from_estimate(est, current.frame_size, SetupOptions())
     except LaneFinderError:
         return None
-    new = make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
-    return new if _plausible_for_a_still(current, new, est.height_m, cfg) else None
+    return make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
 
 
 def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cfg: SelfCalConfig) -> bool:
@@ -729,8 +744,4 @@ def _pitched(current: BirdsEye, horizon_px: float) -> BirdsEye | None:
     est = RoadEstimate(camera_matrix=current.camera.camera_matrix, vp=(src_vanishing_point(current.src_px)[0],
                        float(horizon_px)), height_m=setup_of(current)[1], centre_m=0.0, focal_source="camera file",
                        evidence=())
-    try:
-        b, _, _ = view_from_estimate(est, current.frame_size, SetupOptions())
-    except LaneFinderError:
-        return None
-    return make_birdseye(current.camera, np.array(b.src), np.array(b.dst), b.size, b.xm_per_px, b.ym_per_px)
+    return _setup_from(current, est)
