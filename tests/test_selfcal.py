@@ -115,6 +115,26 @@ def test_a_frame_the_pipeline_reads_as_curved_is_not_looked_at(test_images):
     assert len(cal._frames) == 1
 
 
+def test_an_unsure_estimate_does_not_end_the_fast_looks_and_a_sure_one_does(test_images):
+    from lanefinder.selfcal import SelfCalibrator
+
+    be = LaneFinder().birdseye((1280, 720))
+    still = test_images["straight_lines1"]
+    # A bar no estimate can pass: every estimate is unsure, and one frame in 2 is still looked at.
+    strict = Config().model_copy(update={"selfcal": Config().selfcal.model_copy(update={"change_xm_pct": 0.01})})
+    cal = SelfCalibrator(strict, be.camera, be)
+    for _ in range(20):
+        cal.offer(still, 0.0)
+    assert cal.last_verdict == "unsure" and cal.state.source == "default" and cal.searching
+    assert len(cal._frames) == 10
+    # With the default bar the first estimate (on 4 frames) is sure: one frame in 50 from then on.
+    cal = SelfCalibrator(Config(), be.camera, be)
+    for _ in range(20):
+        cal.offer(still, 0.0)
+    assert cal.last_verdict == "confirms" and not cal.searching
+    assert len(cal._frames) == 4
+
+
 def test_the_road_read_from_two_lines_near_the_car_is_the_true_one_on_a_curve_too():
     from lanefinder.autosetup import road_from_lines, road_homography
     from lanefinder.errors import LaneFinderError

@@ -1024,11 +1024,11 @@ class SelfCalConfig(_Section):
     enabled : bool
         Estimate the set-up from the video when the config gives none.
     every_frames : int
-        While too few frames are in, look at one frame in this many (for the first
-        ``fast_frames`` frames at most).
+        Until a sure estimate, look at one frame in this many (for the first ``fast_frames``
+        frames at most); an estimate not sure enough does not end these fast looks.
     fast_frames : int
-        After this many frames, or once there is an estimate, the slow rate applies (a road that
-        gives no estimate, curved all along, is not looked at closely for ever).
+        After this many frames, or once there is a sure estimate, the slow rate applies (a road
+        that gives no sure estimate, curved all along, is not looked at closely for ever).
     refine_every_frames : int
         Afterwards, one in this many (slow refinement); with ``window_frames`` this sets how
         far back the estimate reaches (40 frames looked at, one in 50: 80 s at 25 fps).
