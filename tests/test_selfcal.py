@@ -133,6 +133,13 @@ def test_an_unsure_estimate_does_not_end_the_fast_looks_and_a_sure_one_does(test
         cal.offer(still, 0.0)
     assert cal.last_verdict == "confirms" and not cal.searching
     assert len(cal._frames) == 4
+    # However long no estimate is sure, the fast looks end after fast_frames frames.
+    bounded = strict.model_copy(update={"selfcal": strict.selfcal.model_copy(update={"fast_frames": 12})})
+    cal = SelfCalibrator(bounded, be.camera, be)
+    for _ in range(60):
+        cal.offer(still, 0.0)
+    assert not cal.searching and cal.state.source == "default"
+    assert len(cal._frames) == 7  # frames 1, 3, ..., 11, then 51
 
 
 def test_the_road_read_from_two_lines_near_the_car_is_the_true_one_on_a_curve_too():

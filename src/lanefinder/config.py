@@ -1095,7 +1095,7 @@ class SelfCalConfig(_Section):
     first_frame : bool
         A video's first frame is looked at alone, as a still is (its own set-up, the still
         gates, else its horizon's set-up as ``still_horizon`` says), and the set-up it gives
-        is used until self-calibration has an estimate (telemetry ``setup`` = ``first-frame``).
+        is used until self-calibration has a sure estimate (telemetry ``setup`` = ``first-frame``).
     unsure_parallel : float
         While a self-calibrating video runs on the default (or its first frame's) set-up, before its first sure estimate
         and within its first ``fast_frames`` frames, ``fit.parallel`` is this: a camera mounted

@@ -460,7 +460,7 @@ class LaneFinder:
         if self.self_calibrate and (self.selfcal is None or self.selfcal.current.frame_size != be.frame_size):
             self.selfcal = SelfCalibrator(self.config, be.camera, be)
             self._curvature_per_m = math.nan
-            # The first frame alone, as a still: a set-up of its own, used until the estimate (on
+            # The first frame alone, as a still: a set-up of its own, used until a sure estimate (on
             # synthetic unknown mounts the frames before the first estimate scored 0.43-0.59).
             first = (self.selfcal.first_look(frame, lambda other: self._seen_better(frame, be, other))
                      if self.config.selfcal.first_frame and selfcal_wanted(self.config) else None)

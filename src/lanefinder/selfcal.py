@@ -1,7 +1,7 @@
 """Self-calibration: the bird's-eye set-up estimated from the video itself while it runs.
 
-A :class:`SelfCalibrator` looks at one frame in ``selfcal.every_frames`` (later one in
-``refine_every_frames``), shrunk to ``work_width_px`` and undistorted, exactly as
+A :class:`SelfCalibrator` looks at one frame in ``selfcal.every_frames`` (after a sure estimate, or
+after ``fast_frames`` frames, one in ``refine_every_frames``), shrunk to ``work_width_px`` and undistorted, exactly as
 ``lanefinder setup`` looks at a frame (:func:`lanefinder.autosetup.frame_evidence`): the
 vanishing point, the ego lines, the camera height from the lane width.  The most recent
 ``window_frames`` accepted frames are combined robustly (outliers such as bumps, hills and
@@ -58,9 +58,9 @@ class SetupState:
     Attributes
     ----------
     source : str
-        ``config`` (given by the config), ``default`` (self-calibration has no estimate yet),
-        ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
-        until an estimate), ``lines`` (no estimate yet; the set-up in use pitched to where the
+        ``config`` (given by the config), ``default`` (self-calibration has no sure estimate
+        yet), ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
+        until a sure estimate), ``lines`` (no sure estimate yet; the set-up in use pitched to where the
         lane lines measured meet: :meth:`SelfCalibrator.offer_lines`) or ``estimated``
         (self-calibration's estimate is in use, or a sure estimate confirmed the set-up in use
         or was refused in its favour by the frame check, ``selfcal.estimate_check``).
