@@ -1,9 +1,10 @@
 """Self-calibration: the bird's-eye set-up estimated from the video itself while it runs.
 
-A :class:`SelfCalibrator` looks at one frame in ``selfcal.every_frames`` (after a sure estimate, or
-after ``fast_frames`` frames, one in ``refine_every_frames``), shrunk to ``work_width_px`` and undistorted, exactly as
-``lanefinder setup`` looks at a frame (:func:`lanefinder.autosetup.frame_evidence`): the
-vanishing point, the ego lines, the camera height from the lane width.  The most recent
+A :class:`SelfCalibrator` looks at one frame in ``selfcal.every_frames`` (after a sure estimate,
+or after ``fast_frames`` frames, one in ``refine_every_frames``), shrunk to ``work_width_px`` and
+undistorted, exactly as ``lanefinder setup`` looks at a frame
+(:func:`lanefinder.autosetup.frame_evidence`): the vanishing point, the ego lines, the camera
+height from the lane width.  The most recent
 ``window_frames`` accepted frames are combined robustly (outliers such as bumps, hills and
 lane changes refused, curved frames refused, see :func:`lanefinder.autosetup.estimate_road`)
 once ``min_frames`` are in, and again as more come.  An estimate replaces the set-up in use

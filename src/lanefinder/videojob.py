@@ -215,16 +215,16 @@ def _setup_lines(st: SetupState) -> list[str]:
           if q is not None and q.frames_offered > st.frames else "")
     where = (f"horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road, focal length "
              f"{st.focal_px:.0f} px")
+    refused = (f"{st.refused} sure estimate(s) refused, the frame each came with showing the lane surer with the "
+               "set-up in use (selfcal.estimate_check)")
     if st.refused and not st.updates:
-        out = [f"set-up: the set-up the run started with was kept: {where}; {st.refused} sure estimate(s) refused, "
-               "the frame each came with showing the lane surer with the set-up in use (selfcal.estimate_check); "
+        out = [f"set-up: the set-up the run started with was kept: {where}; {refused}; "
                f"the last estimate rests on {st.frames} straight-road frames{of}"]
     else:
         out = [f"set-up: self-calibrated from {st.frames} straight-road frames{of}, {st.updates} change(s) of the "
                f"set-up in use: {where}"]
         if st.refused:
-            out.append(f"set-up: {st.refused} sure estimate(s) refused, the frame each came with showing the lane "
-                       "surer with the set-up in use (selfcal.estimate_check)")
+            out.append(f"set-up: {refused}")
     if st.quality is not None:
         out.append("last estimate's " + st.quality.lines()[2])
     return out
