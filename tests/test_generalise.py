@@ -24,7 +24,7 @@ from lanefinder.videojob import process_video
 
 def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int, int] = (640, 360),
          streaks: bool = True, streak_side_m: float | None = None, own_road: bool = False,
-         far_hold: bool = True):
+         far_hold: bool = True, parallel_own_m: float | None = None):
     # 4 s at 640x360 by default (the pipeline works in metres at any size; a quarter of the rendering time).
     folder = tmp_path / f"{scenario}-{seed}"
     if not (folder / "video.mp4").exists():
@@ -33,6 +33,9 @@ def _run(tmp_path, scenario: str, seed: int, frames: int = 100, size: tuple[int,
     cfg = load_config(folder / "config.toml")
     if not far_hold:
         cfg = cfg.model_copy(update={"far": cfg.far.model_copy(update={"hold": False})})
+    if parallel_own_m is not None:
+        cfg = cfg.model_copy(update={"tracking": cfg.tracking.model_copy(
+            update={"max_parallel_diff_own_setup_m": parallel_own_m})})
     change = {"enabled": False} if not streaks else {}
     if streak_side_m is not None:
         change["min_side_m"] = streak_side_m
@@ -113,3 +116,16 @@ def test_reflections_of_lamps_far_ahead_are_taken_out_under_the_car(tmp_path):
     after = _run(tmp_path, "night", 9, frames=30)
     assert after.accuracy >= 0.93 and after.no_lane_rate is not None and after.no_lane_rate <= 0.05
     assert before.accuracy <= 0.4
+
+
+@pytest.mark.slow
+def test_a_lane_over_crests_and_sags_keeps_both_lines_with_its_own_set_up(tmp_path):
+    # Tuning seed 6 of `hills` on its own stretch of road (vertical radius 900 m, a winding
+    # two-lane road), 50 frames at 720p with the sequence's own set-up.  Over a crest the flat-road
+    # view narrows the lane ahead; with the parallel check at 0.9 m (the limit on a set-up not of
+    # the config's own) the true right line was refused for 25 frames and drawn inferred 0.5 m
+    # wide of its marking: accuracy 0.678; at 1.3 m (tracking.max_parallel_diff_own_setup_m) 0.960.
+    before = _run(tmp_path, "hills", 6, frames=50, size=(1280, 720), own_road=True, parallel_own_m=0.9)
+    after = _run(tmp_path, "hills", 6, frames=50, size=(1280, 720), own_road=True)
+    assert before.accuracy <= 0.72
+    assert after.accuracy >= 0.94

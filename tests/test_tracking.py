@@ -8,9 +8,11 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from lanefinder.config import TrackingConfig
+from lanefinder.checks import check_parallel
+from lanefinder.config import BirdseyeConfig, Config, TrackingConfig
 from lanefinder.geometry import Scale
 from lanefinder.lane import LOST, REDETECT, TRACKING, Line
+from lanefinder.measure import Measurer
 from lanefinder.tracking import Rules, Track, Verdict, at_fps, implied_lane, step
 
 LEFT = np.array([2e-4, 0.01, -1.8])
@@ -421,3 +423,19 @@ def test_lines_moving_apart_or_seen_one_at_a_time_are_not_held(tracker):
         tracker.update(meas(LEFT), None, blind=False)
     t = tracker.update(_seen_from(np.add(LEFT, [0, 0, 0.3]), 10.0), None, blind=False)
     assert t.left.fit_m[2] - LEFT[2] > 0.12
+
+
+def test_the_parallel_limit_is_looser_only_with_the_configs_own_set_up():
+    # On a crest the flat-road view narrows a true lane ahead: with the camera's own set-up the
+    # parallel check allows tracking.max_parallel_diff_own_setup_m; on the default set-up (a
+    # guess, as for an unknown mount or a self-calibrating run) it keeps max_parallel_diff_m.
+    scale = Scale(3.7 / 150, 0.0985, 300, 200.0)
+    default = Config()
+    own = default.model_copy(update={"birdseye": BirdseyeConfig(src=((580.0, 462.0), (704.0, 462.0),
+                                                                     (1034.0, 675.0), (280.5, 675.0)))})
+    assert Measurer.build(default, scale).rules.cfg.max_parallel_diff_m == default.tracking.max_parallel_diff_m == 0.9
+    assert Measurer.build(own, scale).rules.cfg.max_parallel_diff_m == own.tracking.max_parallel_diff_own_setup_m == 1.3
+    # A pair 1.1 m narrower at the view's far end than at the car: refused on the default, kept on its own.
+    left, right = np.array([0.0, 0.55 / 30, -1.8]), np.array([0.0, -0.55 / 30, 1.8])
+    assert check_parallel(left, right, 30.0, Measurer.build(default, scale).rules.cfg) == "parallel"
+    assert check_parallel(left, right, 30.0, Measurer.build(own, scale).rules.cfg) is None

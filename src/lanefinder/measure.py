@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .checks import check_line_inside, is_yellow, pair_problems, yellow_side
-from .config import Config
+from .config import BirdseyeConfig, Config
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, poly_x, px_to_m
 from .lane import Line
 from .search import Pixels, SearchParams, SearchResult, blind_search, heading_search, search_around, search_params
@@ -80,6 +80,10 @@ class Measurer:
     def build(cls, config: Config, scale: Scale) -> Measurer:
         """Turn a configuration's metre settings into pixels for a bird's-eye scale.
 
+        With a set-up of the config's own (``birdseye`` not the default) the lane checks allow
+        ``tracking.max_parallel_diff_own_setup_m`` for the parallel check (``rules.cfg`` holds it
+        as ``max_parallel_diff_m``); otherwise ``tracking.max_parallel_diff_m``.
+
         Parameters
         ----------
         config : Config
@@ -94,7 +98,10 @@ class Measurer:
         """
         sp = search_params(config.search, scale.xm_per_px, scale.ym_per_px)
         fp = fit_params(config.fit, scale.xm_per_px, scale.ym_per_px, config.search.marking_width_m)
-        rules = Rules(config.tracking, scale.height_px * scale.ym_per_px, config.search.lane_width_m, scale)
+        tracking = config.tracking
+        if config.birdseye != BirdseyeConfig():  # the camera's own set-up: a lane parting ahead is the road's
+            tracking = tracking.model_copy(update={"max_parallel_diff_m": tracking.max_parallel_diff_own_setup_m})
+        rules = Rules(tracking, scale.height_px * scale.ym_per_px, config.search.lane_width_m, scale)
         return cls(config, sp, fp, rules)
 
 
@@ -137,7 +144,7 @@ def _conf(fit: LineFit | None) -> float:
 
 
 def _weak(fits: Fits, m: Measurer) -> bool:
-    return any(f is None or f.confidence < m.config.tracking.min_confidence for f in fits)
+    return any(f is None or f.confidence < m.rules.cfg.min_confidence for f in fits)
 
 
 def _fit(found: SearchResult, m: Measurer) -> Fits:
@@ -161,7 +168,7 @@ def _keep_better(found: SearchResult, fits: Fits, again: SearchResult, m: Measur
 
 def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) -> tuple[SearchResult, Fits, bool]:
     """Search and fit with the retry policy (steps 1-4 of the module docstring)."""
-    sp, scale, cfg = m.search, m.scale, m.config.tracking
+    sp, scale, cfg = m.search, m.scale, m.rules.cfg
     blind = track.needs_blind_search(cfg)
     if blind:
         found = blind_search(binary, sp, scale.car_x_px, pixels)
@@ -188,7 +195,7 @@ def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) ->
 
 def _pair_problems(fits: Fits, track: Track, m: Measurer) -> list[str]:
     """Give the lane checks' reasons against a pair of pixel fits (both present)."""
-    cfg = m.config.tracking
+    cfg = m.rules.cfg
     lm, rm = (px_to_m(f.coeffs_px, m.scale) for f in fits)  # type: ignore[union-attr]
     return pair_problems(lm, rm, track.tracked_width(cfg), m.rules.lookahead_m, cfg)
 
@@ -204,7 +211,7 @@ def _along_partner(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits
     That search is taken only when its pair passes every lane check, both its lines are
     confident (``tracking.min_confidence``) and the weaker one is no less so than before.
     """
-    min_conf = m.config.tracking.min_confidence
+    min_conf = m.rules.cfg.min_confidence
     strong = 0 if fits[0].confidence >= fits[1].confidence else 1  # type: ignore[union-attr]
     weak = 1 - strong
     if fits[strong].confidence < min_conf or not {"parallel", "curvature"} & set(  # type: ignore[union-attr]
@@ -309,7 +316,7 @@ def _straddles(got: Measured, px: Pixels, m: Measurer) -> bool:
     if got.lines[0] is None or got.lines[1] is None:
         return False
     lane = (got.lines[0].fit_m, got.lines[1].fit_m)
-    return check_line_inside(px, *lane, m.scale, m.config.tracking, m.config.search.inner_retry_span) is not None
+    return check_line_inside(px, *lane, m.scale, m.rules.cfg, m.config.search.inner_retry_span) is not None
 
 
 def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer, px: Pixels) -> Measured:
@@ -317,7 +324,7 @@ def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: 
     found, fits, blind = find_lines(binary, px, track, m)
     lines = (_line(fits[0], m.scale), _line(fits[1], m.scale))
     reasons: list[str] = []
-    cfg = m.config.tracking
+    cfg = m.rules.cfg
     if view is not None and cfg.yellow_line_side != "either":
         yellow = tuple(line is not None and is_yellow(view, pix, cfg, m.config.threshold.ridge.yellow_min)
                        for line, pix in zip(lines, (found.left, found.right), strict=True))
