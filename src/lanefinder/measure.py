@@ -49,7 +49,9 @@ class Measurer:
     Attributes
     ----------
     config : Config
-        The configuration (``tracking`` and ``threshold.ridge.yellow_min`` are read here).
+        The configuration (``search`` and ``threshold.ridge.yellow_min`` are read here; the
+        tracking settings from ``rules.cfg``, whose parallel limit depends on the set-up:
+        :meth:`build`).
     search : SearchParams
         Search settings in bird's-eye pixels.
     fit : FitParams
@@ -82,7 +84,8 @@ class Measurer:
 
         With a set-up of the config's own (``birdseye`` not the default) the lane checks allow
         ``tracking.max_parallel_diff_own_setup_m`` for the parallel check (``rules.cfg`` holds it
-        as ``max_parallel_diff_m``); otherwise ``tracking.max_parallel_diff_m``.
+        as ``max_parallel_diff_m``, whatever ``tracking.max_parallel_diff_m`` says); otherwise
+        ``tracking.max_parallel_diff_m``.
 
         Parameters
         ----------
