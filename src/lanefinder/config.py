@@ -1331,6 +1331,26 @@ class Config(_Section):
     events: EventsConfig = EventsConfig()
     selfcal: SelfCalConfig = SelfCalConfig()
 
+    def has_own_setup(self) -> bool:
+        """Tell whether the config holds a bird's-eye set-up of its own (``birdseye`` not the default).
+
+        Such a set-up is the camera's own (as ``lanefinder setup`` writes it): a run with it does
+        not self-calibrate, and the lane checks trust it more (``tracking.max_parallel_diff_own_setup_m``).
+
+        Returns
+        -------
+        bool
+            True when ``birdseye`` differs from ``BirdseyeConfig()``.
+
+        Examples
+        --------
+        >>> Config().has_own_setup()
+        False
+        >>> Config.model_validate({"birdseye": {"size": [400, 320]}}).has_own_setup()
+        True
+        """
+        return self.birdseye != BirdseyeConfig()
+
     @model_validator(mode="after")
     def _check_field_of_view(self) -> Config:
         f, w = self.camera.focal_px, self.birdseye.reference_size[0]

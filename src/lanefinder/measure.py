@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .checks import check_line_inside, is_yellow, pair_problems, yellow_side
-from .config import BirdseyeConfig, Config
+from .config import Config
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, poly_x, px_to_m
 from .lane import Line
 from .search import Pixels, SearchParams, SearchResult, blind_search, heading_search, search_around, search_params
@@ -102,7 +102,7 @@ class Measurer:
         sp = search_params(config.search, scale.xm_per_px, scale.ym_per_px)
         fp = fit_params(config.fit, scale.xm_per_px, scale.ym_per_px, config.search.marking_width_m)
         tracking = config.tracking
-        if config.birdseye != BirdseyeConfig():  # the camera's own set-up: a lane parting ahead is the road's
+        if config.has_own_setup():  # the camera's own set-up: a lane parting ahead is the road's
             tracking = tracking.model_copy(update={"max_parallel_diff_m": tracking.max_parallel_diff_own_setup_m})
         rules = Rules(tracking, scale.height_px * scale.ym_per_px, config.search.lane_width_m, scale)
         return cls(config, sp, fp, rules)

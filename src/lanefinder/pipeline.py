@@ -200,7 +200,7 @@ def birdseye_config_used(cfg: Config, camera: CameraModel | None, frame_size: tu
     (1920, 1080)
     """
     b = cfg.birdseye
-    if b != BirdseyeConfig() or cfg.camera.model == "none":
+    if cfg.has_own_setup() or cfg.camera.model == "none":
         return b
     if camera is None:
         try:

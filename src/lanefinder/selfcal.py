@@ -43,7 +43,7 @@ from .autosetup import (
 )
 from .birdseye import BirdsEye, make_birdseye, setup_of, src_vanishing_point
 from .camera import CameraModel
-from .config import LANE_WIDTH_M, BirdseyeConfig, Config, SelfCalConfig
+from .config import LANE_WIDTH_M, Config, SelfCalConfig
 from .errors import LaneFinderError
 from .evaluate import setup_error
 from .search import LinePixels
@@ -142,7 +142,7 @@ def wanted(config: Config) -> bool:
     >>> wanted(Config()), wanted(Config.model_validate({"selfcal": {"enabled": False}}))
     (True, False)
     """
-    return config.selfcal.enabled and config.birdseye == BirdseyeConfig()
+    return config.selfcal.enabled and not config.has_own_setup()
 
 
 class SelfCalibrator:
