@@ -1090,7 +1090,17 @@ class SelfCalConfig(_Section):
         self-calibrating video's first frame (``first_frame``) ...
     still_horizon_margin : float
         ... and that result is kept when it has a lane and its lines' mean confidence is at
-        least this much higher (or the config's set-up shows no lane).
+        least this much higher (or the config's set-up shows no lane) ...
+    still_horizon_agree : float
+        ... or, with any confidence, when that row and the one the near parts of the lines
+        found with the config's set-up meet on (:func:`lanefinder.selfcal.lines_setup`) lie
+        within this fraction of the frame's height of each other: two reads of the pitch from
+        different pixels agree (0.007: 5 px at 720p; 0 turns this off).  A set-up that pitches
+        the road wrong splays the lane in the view and a weak dashed line takes its strong
+        partner's splayed shape, while a wrong pitch can leave that line surer.  Chosen on
+        stills of the three videos at 0, 0.25 and 0.75 s of each second (the reported set is
+        the middle frame; project, challenge, harder, of 152, 49 and 136): 0 146, 34, 65 agree;
+        0.007 146, 38, 65; 0.0097 (7 px) 146, 39, 62; 0.014 (10 px) 146, 39, 62.
     still_lines : bool
         A still that gives no set-up of its own (a curving road, say), and whose horizon's
         set-up was not kept, is found again with the
@@ -1168,6 +1178,7 @@ class SelfCalConfig(_Section):
     still_work_width_px: Annotated[int, Field(ge=160, le=4096)] = 1280
     still_horizon: bool = True
     still_horizon_margin: Fraction = 0.05
+    still_horizon_agree: Annotated[float, Field(ge=0, le=0.1)] = 0.007
     still_lines: bool = True
     estimate_check: bool = True
     estimate_check_margin: Fraction = 0.2

@@ -515,7 +515,9 @@ class LaneFinder:
 
         - with ``selfcal.still_horizon``, the config's set-up with the horizon moved to the row
           the still's road lines meet on (:func:`lanefinder.selfcal.horizon_setup`), kept when
-          its lines are surer by ``selfcal.still_horizon_margin``;
+          its lines are surer by ``selfcal.still_horizon_margin``, or whatever their
+          confidence when that row and the one the set-up below gives agree within
+          ``selfcal.still_horizon_agree`` of the frame's height;
         - with ``selfcal.still_lines``, the set-up the lines found in it give
           (:func:`lanefinder.selfcal.lines_setup`), kept when they are no less sure.
 
@@ -617,7 +619,7 @@ class LaneFinder:
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
         keep = self.keep_debug
-        self.keep_debug = keep or sc.still_lines  # the lines' pixels, for lines_setup
+        self.keep_debug = keep or sc.still_lines or sc.still_horizon_agree > 0  # the lines' pixels, for lines_setup
         try:
             first = replace(self.process(frame), setup="default")
         finally:
@@ -631,17 +633,19 @@ class LaneFinder:
         if look.own is not None:
             self.use_birdseye(look.own)
             return self._still_with("estimated", frame)
-        tries = []  # (label, the set-up or a function giving it, how much surer its lines must be)
-        if sc.still_horizon and look.horizon is not None:
-            tries.append(("horizon", look.horizon, sc.still_horizon_margin))
-        if sc.still_lines and search is not None:
-            tries.append(("lines", lambda: lines_setup(self._config_birdseye, search.left, search.right,
-                                                       self.config), 0.0))
+        horizon = look.horizon if sc.still_horizon else None
+        agree_px = sc.still_horizon_agree * size[1]
+        read = None  # the set-up the lines found with the config's set-up give
+        if search is not None and (sc.still_lines or (horizon is not None and agree_px > 0)):
+            read = lines_setup(self._config_birdseye, search.left, search.right, self.config)
+        tries = []  # (label, the set-up, how much surer its lines must be)
+        if horizon is not None:
+            agree = read is not None and abs(setup_of(read)[0] - setup_of(horizon)[0]) <= agree_px
+            tries.append(("horizon", horizon, -math.inf if agree else sc.still_horizon_margin))
+        if sc.still_lines and read is not None:
+            tries.append(("lines", read, 0.0))
         tried = False
-        for label, setup, margin in tries:
-            be = setup() if callable(setup) else setup
-            if be is None:
-                continue
+        for label, be, margin in tries:
             tried = True
             self.use_birdseye(be)
             other = self._still_with(label, frame)
