@@ -619,7 +619,8 @@ class LaneFinder:
         elif self._birdseye is not self._config_birdseye:
             self.use_birdseye(self._config_birdseye)
         keep = self.keep_debug
-        self.keep_debug = keep or sc.still_lines or sc.still_horizon_agree > 0  # the lines' pixels, for lines_setup
+        # the lines' pixels, for lines_setup
+        self.keep_debug = keep or sc.still_lines or (sc.still_horizon and sc.still_horizon_agree > 0)
         try:
             first = replace(self.process(frame), setup="default")
         finally:
@@ -640,7 +641,7 @@ class LaneFinder:
             read = lines_setup(self._config_birdseye, search.left, search.right, self.config)
         tries = []  # (label, the set-up, how much surer its lines must be)
         if horizon is not None:
-            agree = read is not None and abs(setup_of(read)[0] - setup_of(horizon)[0]) <= agree_px
+            agree = agree_px > 0 and read is not None and abs(setup_of(read)[0] - setup_of(horizon)[0]) <= agree_px
             tries.append(("horizon", horizon, -math.inf if agree else sc.still_horizon_margin))
         if sc.still_lines and read is not None:
             tries.append(("lines", read, 0.0))
