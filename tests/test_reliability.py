@@ -600,7 +600,7 @@ def test_every_number_of_the_config_is_bounded_both_ways():
 
 @pytest.mark.parametrize(("path", "value"), [("search.heading_step_deg", 1e-9), ("threshold.ridge.width_m", 1e6),
                                              ("search.margin_m", 1e308), ("search.peak_smoothing_m", 1e12),
-                                             ("tracking.interior_strip_m", 1e-6)])
+                                             ("tracking.interior_strip_m", 1e-6), ("search.bend_step_per_m", 1e-9)])
 def test_values_that_hung_or_crashed_a_run_are_refused(path, value):
     with pytest.raises(LaneFinderError, match=path.rpartition(".")[2]):
         config_from_dict(_with(path, value), "x")

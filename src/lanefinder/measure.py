@@ -13,9 +13,14 @@
 4. A blind pair whose lines' shapes disagree (a faint line lost by its windows in a tight bend):
    the weaker line is searched again along the stronger one's shape, and taken when the pair
    then passes the lane checks.
-5. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
+5. Every line found too short for a curve (under ``fit.min_span_fraction`` of the view: a dash
+   near the car each, the next ones off their straight continuation on a tight curve): the
+   pieces are bent on by the curvature that finds them the most paint
+   (:func:`~lanefinder.search.bend_search`), and those lines are taken when neither is less
+   confident and (with both) the pair passes the lane checks.
+6. Frame checks (:mod:`lanefinder.checks`): a yellow line only on its allowed side
    (``tracking.yellow_line_side``), and no solid marking down the middle of the lane.
-6. A blind search whose lane straddles a solid marking (in its middle half: refused by that
+7. A blind search whose lane straddles a solid marking (in its middle half: refused by that
    last check; or nearer its lines, within ``search.inner_retry_span`` of its width from its
    centre): a bright verge or a kerb taken for a line, the true line inside the lane.  The
    search is made again preferring the markings nearest the car
@@ -33,7 +38,16 @@ from .checks import check_line_inside, is_yellow, pair_problems, yellow_side
 from .config import Config
 from .geometry import FitParams, LineFit, Scale, fit_lane, fit_params, m_to_px, poly_x, px_to_m
 from .lane import Line
-from .search import Pixels, SearchParams, SearchResult, blind_search, heading_search, search_around, search_params
+from .search import (
+    Pixels,
+    SearchParams,
+    SearchResult,
+    bend_search,
+    blind_search,
+    heading_search,
+    search_around,
+    search_params,
+)
 from .threshold import blown_out_rows
 from .tracking import Rules, Track, implied_lane
 
@@ -170,7 +184,7 @@ def _keep_better(found: SearchResult, fits: Fits, again: SearchResult, m: Measur
 
 
 def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) -> tuple[SearchResult, Fits, bool]:
-    """Search and fit with the retry policy (steps 1-4 of the module docstring)."""
+    """Search and fit with the retry policy (steps 1-5 of the module docstring)."""
     sp, scale, cfg = m.search, m.scale, m.rules.cfg
     blind = track.needs_blind_search(cfg)
     if blind:
@@ -193,7 +207,33 @@ def find_lines(binary: np.ndarray, pixels: Pixels, track: Track, m: Measurer) ->
             found, fits = slant, slant_fits
     if blind and fits[0] is not None and fits[1] is not None:
         found, fits = _along_partner(binary, pixels, found, fits, track, m)
+    if m.search.bend_px:
+        found, fits = _along_bend(binary, pixels, found, fits, track, m)
     return found, fits, blind
+
+
+def _along_bend(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits: Fits, track: Track,
+                m: Measurer) -> tuple[SearchResult, Fits]:
+    """Step 5: lines all too short for a curve, bent on by :func:`~lanefinder.search.bend_search`.
+
+    Taken when every line found before is found again no less confident and, with both, the pair
+    passes every lane check (a lone line is held to the tracker's checks alone).
+    """
+    given = [f for f in fits if f is not None]
+    if not given or any(f.span >= m.fit.min_span_fraction for f in given):
+        return found, fits
+    pieces = tuple(None if f is None else (f.coeffs_px, f.top_px, f.bottom_px) for f in fits)
+    again = bend_search(binary, pieces, m.search, m.fit.min_pixels, pixels)  # type: ignore[arg-type]
+    if again is None:
+        return found, fits
+    new = _fit(again, m)
+    for old, fit in zip(fits, new, strict=True):
+        if old is not None and (fit is None or fit.confidence < old.confidence):
+            return found, fits
+    if new[0] is not None and new[1] is not None and _pair_problems(new, track, m):
+        return found, fits
+    return replace(again, method=f"{found.method}+bend", histogram=found.histogram, bases_px=found.bases_px,
+                   extra={**found.extra, **again.extra}), new
 
 
 def _pair_problems(fits: Fits, track: Track, m: Measurer) -> list[str]:
@@ -286,7 +326,7 @@ def measure(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measur
     # inner_preference: 0 is off, and a higher value asks more of the inner pair.
     looser = sc.inner_retry_preference > 0 and not 0 < m.search.inner_preference <= sc.inner_retry_preference
     if got.blind and looser and _straddles(got, px, m):
-        # The lane straddles a marking: its lines were likely beyond the true ones (step 6).
+        # The lane straddles a marking: its lines were likely beyond the true ones (step 7).
         inner = replace(m, search=replace(m.search, inner_preference=sc.inner_retry_preference))
         again = _measure_with(binary, view, track, inner, px)
         if "line-inside-lane" not in again.reasons and all(line is not None for line in again.lines):
@@ -323,7 +363,7 @@ def _straddles(got: Measured, px: Pixels, m: Measurer) -> bool:
 
 
 def _measure_with(binary: np.ndarray, view: np.ndarray | None, track: Track, m: Measurer, px: Pixels) -> Measured:
-    """Measure with one set of search settings: steps 1-5 of :func:`measure`."""
+    """Measure with one set of search settings: steps 1-6 of :func:`measure`."""
     found, fits, blind = find_lines(binary, px, track, m)
     lines = (_line(fits[0], m.scale), _line(fits[1], m.scale))
     reasons: list[str] = []

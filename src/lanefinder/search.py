@@ -1,31 +1,35 @@
 """Finding the pixels of each lane line in the bird's-eye binary.
 
-Four searches, all over the same sorted list of set pixels:
+Five searches, all over the same sorted list of set pixels:
 - :func:`sliding_windows`: a histogram of the lower image, then windows stepping up;
 - :func:`segment_search`: a histogram per horizontal segment, implausible peaks rejected;
 - :func:`heading_search`: sliding windows for lines that cross the view at an angle (the car
   heading off the lane, as in a hairpin): histograms taken along a set of slopes;
-- :func:`search_around`: a band around a previous fit (video tracking).
+- :func:`search_around`: a band around a previous fit (video tracking);
+- :func:`bend_search`: short pieces of line bent on by the curvature that finds them more paint.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
-from .config import SearchConfig
+from .config import MAX_BEND_STEPS, SearchConfig
 from .geometry import poly_x
 
 __all__ = [
     "EMPTY",
     "LinePixels",
+    "Piece",
     "Pixels",
     "SearchParams",
     "SearchResult",
     "Window",
     "base_histogram",
+    "bend_search",
     "blind_search",
     "find_bases",
     "heading_search",
@@ -45,6 +49,8 @@ _MIN_WINDOW_PIXELS = 3
 _FULL_WINDOW = 3  # a window with this many times min_pixels is trusted fully when recentring
 # Width (columns) of the box filter on a segment's histogram; a peak's sum is its mean times this.
 _SEGMENT_BLUR_PX = 5
+# Rows the paint a bend catches beyond a piece must span before its heading is judged (fewer: a speck).
+_MIN_TURN_ROWS = 5
 
 
 @dataclass(frozen=True)
@@ -88,6 +94,16 @@ class SearchParams:
         Slopes the angled search tries: pixels right per pixel up.
     heading_band_px : float
         Half-width of the band the angled search keeps around each window's ridge, pixels.
+    bend_px : tuple of float
+        Bends :func:`bend_search` tries: the ``a`` of x = a*y^2 + ..., bird's-eye pixels, from
+        the sharpest one way to the sharpest the other, straight (0) in the middle; () is off.
+    bend_band_px : float
+        Half-width of :func:`bend_search`'s band, pixels.
+    bend_min_gain : float
+        Paint a bend must catch, in multiples of the straight continuation's.
+    bend_max_turn_px : float
+        Largest heading difference between the paint caught beyond a piece and the bend,
+        pixels across per pixel along.
 
     Examples
     --------
@@ -122,6 +138,10 @@ class SearchParams:
     heading_band_px: float = 0.0
     pair_max_offset_px: float = 0.0
     inner_preference: float = 0.0
+    bend_px: tuple[float, ...] = ()
+    bend_band_px: float = 0.0
+    bend_min_gain: float = 2.0
+    bend_max_turn_px: float = 0.0
 
 
 def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> SearchParams:
@@ -151,6 +171,9 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
     # A line heading at angle a moves tan(a) metres sideways per metre ahead.
     shears = tuple(float(np.tan(np.radians(a)) * ym_per_px / xm_per_px) for a in angles)
     min_pixels = max(_MIN_WINDOW_PIXELS, round(cfg.min_window_marking_m * per_m))
+    # A curvature k (1/m) bends a line by k/2 * d^2 metres d ahead: a = k/2 * ym^2 / xm in pixels.
+    steps = min(MAX_BEND_STEPS, math.floor(cfg.bend_max_per_m / cfg.bend_step_per_m + 1e-9))
+    bends = tuple(float(k * cfg.bend_step_per_m / 2 * ym_per_px**2 / xm_per_px) for k in range(-steps, steps + 1))
     return SearchParams(
         method=cfg.method,
         n_windows=cfg.n_windows,
@@ -175,6 +198,10 @@ def search_params(cfg: SearchConfig, xm_per_px: float, ym_per_px: float) -> Sear
         segment_min_fraction=cfg.segment_min_fraction,
         shears_px=shears,
         heading_band_px=cfg.heading_band_m / xm_per_px,
+        bend_px=bends if steps > 0 else (),
+        bend_band_px=cfg.bend_band_m / xm_per_px,
+        bend_min_gain=cfg.bend_min_gain,
+        bend_max_turn_px=cfg.bend_max_turn * ym_per_px / xm_per_px,
     )
 
 
@@ -214,8 +241,9 @@ class SearchResult:
     left, right : LinePixels
         Each line's pixels.
     method : str
-        The search that found them (``windows``, ``segments``, ``heading``, ``around``, or two
-        joined by ``+`` when each line kept another search's pixels).
+        The search that found them (``windows``, ``segments``, ``heading``, ``around``, ``bend``),
+        and what followed it joined by ``+`` (``windows+heading``: each line kept another
+        search's pixels; ``+partner``, ``+bend``, ``+inner``: the measurer's later steps).
     histogram : ndarray or None
         The column histogram the bases came from.
     bases_px : tuple of (float or None)
@@ -223,7 +251,7 @@ class SearchResult:
     band_px : int
         Half-width of the band of a search around the track, pixels (0 otherwise).
     extra : dict
-        Search-specific details (``shear_px`` of the angled search).
+        Search-specific details (``shear_px`` of the angled search, ``bend_px`` of the bend probe).
 
     Examples
     --------
@@ -788,3 +816,131 @@ def search_around(binary: np.ndarray, left_fit: np.ndarray | None, right_fit: np
     px = pixels or Pixels.of(binary)
     return SearchResult(_around(px, left_fit, margin_px), _around(px, right_fit, margin_px), "around",
                         band_px=int(margin_px))
+
+
+#: A short piece of line for :func:`bend_search`: its fit (a, b, c) and its top and bottom rows.
+Piece = tuple[np.ndarray, float, float]
+
+
+def _tangent(piece: Piece) -> tuple[float, float, float]:
+    """Give a piece's middle row y0, its x there and its slope (px across per px along)."""
+    fit, top, bottom = piece
+    y0 = 0.5 * (top + bottom)
+    return y0, float(poly_x(fit, y0)), float(2.0 * fit[0] * y0 + fit[1])
+
+
+def _bent(piece: Piece, a: float) -> np.ndarray:
+    """Bend a piece's tangent at its middle row by ``a``: give (a, b, c) of x = a*y^2 + b*y + c."""
+    y0, x0, s = _tangent(piece)
+    return np.array([a, s - 2.0 * a * y0, x0 - s * y0 + a * y0 * y0])
+
+
+def _beyond(px: Pixels, piece: Piece) -> tuple[np.ndarray, np.ndarray]:
+    """Give the set pixels above and below a piece's rows (2 px clear of them), float64."""
+    _, top, bottom = piece
+    y = px.y.astype(np.float64)
+    out = (y < top - 2) | (y > bottom + 2)
+    return px.x[out].astype(np.float64), y[out]
+
+
+def _catch(x: np.ndarray, y: np.ndarray, piece: Piece, bends: np.ndarray, band: float) -> np.ndarray:
+    """Count the pixels (beyond a piece) within ``band`` of its tangent bent by each of ``bends`` (ascending).
+
+    A pixel r off the straight continuation, d rows from the tangent's row, is caught by the
+    bends a with (r - band)/d^2 < a < (r + band)/d^2: a run of ``bends``, counted with a
+    difference array (memory in the pixels, not pixels times bends).
+    """
+    y0, x0, s = _tangent(piece)
+    r = x - (x0 + s * (y - y0))  # off the straight continuation
+    d2 = (y - y0) ** 2  # > 0: the pixels lie 2 rows or more beyond the piece
+    lo = np.searchsorted(bends, (r - band) / d2, side="right")
+    hi = np.searchsorted(bends, (r + band) / d2, side="left")
+    k = bends.size
+    runs = np.bincount(lo, minlength=k + 1) - np.bincount(np.maximum(hi, lo), minlength=k + 1)
+    return np.cumsum(runs)[:k]
+
+
+def _heads_along(x: np.ndarray, y: np.ndarray, piece: Piece, a: float, cfg: SearchParams) -> bool:
+    """Tell whether the paint a bend catches beyond a piece heads along the bend (or is too short to tell).
+
+    The bend is taken out of the paint caught, and the straight line fitted to what is left must
+    head as the piece's tangent does: exact for paint on the bend, wherever along it it lies.
+    """
+    y0, _, s = _tangent(piece)
+    sel = np.abs(x - poly_x(_bent(piece, a), y)) < cfg.bend_band_px
+    if sel.sum() < 2 or np.ptp(y[sel]) < _MIN_TURN_ROWS:
+        return True
+    ys = y[sel]
+    slope = float(np.polyfit(ys, x[sel] - a * (ys - y0) ** 2, 1)[0])
+    return abs(slope - s) <= cfg.bend_max_turn_px
+
+
+def bend_search(binary: np.ndarray, pieces: tuple[Piece | None, Piece | None], cfg: SearchParams,
+                min_pixels: int, pixels: Pixels | None = None) -> SearchResult | None:
+    """Bend short pieces of line on by the curvature that finds them the most paint beyond.
+
+    A dash near the car gives a line's place and heading, not its bend; on a tight curve the
+    next dashes lie off its straight continuation by more than any band around it.  Each
+    piece's tangent at its middle row is bent by each of ``cfg.bend_px`` and the set pixels
+    beyond the piece within ``cfg.bend_band_px`` of it are counted; with two pieces (a lane's
+    two lines share the bend) the fewer of the two counts.  The best bend is taken when it
+    catches at least ``min_pixels``, more than ``cfg.bend_min_gain`` times what the straight
+    continuation catches, and the paint it catches beyond each piece heads along it (within
+    ``cfg.bend_max_turn_px``): a marking crossing at a slant, or specks at the view's edge, are
+    not the next dash.
+
+    Parameters
+    ----------
+    binary : (H, W) uint8 ndarray
+        The bird's-eye binary, 0/1.
+    pieces : tuple of (Piece or None)
+        The left and right pieces: each its fit (a, b, c) in bird's-eye pixels and its top and
+        bottom rows; None for a line not found.
+    cfg : SearchParams
+        Settings in pixels (``bend_px`` () turns the probe off).
+    min_pixels : int
+        Least paint the best bend must catch, pixels.
+    pixels : Pixels, optional
+        The set pixels of ``binary``, when already extracted.
+
+    Returns
+    -------
+    SearchResult or None
+        The pixels within ``cfg.bend_band_px`` of each bent piece (``method`` ``bend``,
+        ``extra["bend_px"]`` the bend), or None when no bend is taken.
+
+    Examples
+    --------
+    >>> from lanefinder.config import SearchConfig
+    >>> sp = search_params(SearchConfig(), 3.7 / 150, 0.0985)
+    >>> y = np.arange(300.0)
+    >>> x = 125 + 0.002 * (300 - y) ** 2  # a line bending right, seen as a dash near the car and one far off
+    >>> b = np.zeros((300, 400), np.uint8)
+    >>> for lo, hi in ((250, 300), (90, 140)):
+    ...     for row in range(lo, hi):
+    ...         b[row, int(x[row]) - 2:int(x[row]) + 3] = 1
+    >>> near = (np.array([0.0, -0.095, 152.3]), 250.0, 299.0)  # the dash's own straight fit
+    >>> found = bend_search(b, (near, None), sp, 31)
+    >>> found.method, found.left.count, round(found.extra["bend_px"], 4)
+    ('bend', 500, 0.0021)
+    """
+    given = [p for p in pieces if p is not None]
+    if not cfg.bend_px or not given:
+        return None
+    px = pixels or Pixels.of(binary)
+    if px.x.size == 0:
+        return None
+    bends = np.asarray(cfg.bend_px, np.float64)
+    beyond = [_beyond(px, p) for p in given]
+    counts = [_catch(x, y, p, bends, cfg.bend_band_px) for (x, y), p in zip(beyond, given, strict=True)]
+    caught = np.minimum(*counts) if len(counts) == 2 else counts[0]
+    order = np.argsort(np.abs(bends), kind="stable")  # of equal catches, the gentlest bend
+    best = int(order[np.argmax(caught[order])])
+    straight = len(bends) // 2
+    if best == straight or caught[best] < min_pixels or caught[best] <= cfg.bend_min_gain * caught[straight]:
+        return None
+    a = float(bends[best])
+    if not all(_heads_along(x, y, p, a, cfg) for (x, y), p in zip(beyond, given, strict=True)):
+        return None
+    lines = [EMPTY if p is None else _around(px, _bent(p, a), cfg.bend_band_px) for p in pieces]
+    return SearchResult(lines[0], lines[1], "bend", band_px=int(cfg.bend_band_px), extra={"bend_px": a})
