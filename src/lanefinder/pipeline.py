@@ -263,6 +263,14 @@ def _surer(other: LaneResult, first: LaneResult, margin: float) -> bool:
 MIN_FRAME_PX = (128, 64)
 
 
+def _strips_binary(strips: np.ndarray, rows: int, cfg: ThresholdConfig, xm_per_px: float) -> np.ndarray:
+    """Threshold far strips stacked one below the other, each ``rows`` tall, as one image where the threshold allows."""
+    if rowwise(cfg):  # one call for the strips
+        return threshold(strips, cfg, xm_per_px)
+    # a filter across rows would mix the strips at their seam
+    return np.vstack([threshold(strips[i:i + rows], cfg, xm_per_px) for i in range(0, len(strips), rows)])
+
+
 def _check_frame(frame: np.ndarray) -> None:
     """Raise a LaneFinderError unless ``frame`` is a BGR uint8 image of at least ``MIN_FRAME_PX``."""
     if (not isinstance(frame, np.ndarray) or frame.ndim != 3 or frame.shape[2] != 3
@@ -700,6 +708,13 @@ class LaneFinder:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
         return self._ridge_variant(noise_factor=self.config.far.noise_factor)
 
+    def _far_faint_threshold(self) -> ThresholdConfig | None:
+        """Give the far strips' settings for a second look, capped at ``far.faint_contrast_max`` (None: none)."""
+        t, far = self.config.threshold, self.config.far
+        if t.strategy != "ridge" or far.faint_contrast_max >= t.ridge.rel_contrast_max:
+            return None
+        return self._ridge_variant(noise_factor=far.noise_factor, rel_contrast_max=far.faint_contrast_max)
+
     def _ridge_variant(self, **ridge) -> ThresholdConfig:
         """Give the config's threshold settings with some ``threshold.ridge`` settings changed, made once."""
         key = tuple(sorted(ridge.items()))
@@ -722,6 +737,10 @@ class LaneFinder:
 
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
+
+        A line that gets no far part (no marking found, or what was found dropped as texture) is
+        followed again in its strip thresholded for faint paint, the contrast asked capped at
+        ``far.faint_contrast_max``.
 
         Parameters
         ----------
@@ -752,15 +771,19 @@ class LaneFinder:
         # Only strips around the lines' extensions are mapped and thresholded: one image for both.
         centres = [poly_x(getattr(result, side).fit_px, fv.v_px) - fv.u0_px for side in sides]
         strips, col0 = fv.strip(frame, np.array(centres), half)
-        k, tcfg = len(fv.v_px), self._far_threshold()
-        if rowwise(tcfg):  # one call for the strips
-            far_binary = threshold(strips, tcfg, be.xm_per_px)
-        else:  # a filter across rows would mix the strips at their seam
-            far_binary = np.vstack([threshold(strips[i:i + k], tcfg, be.xm_per_px) for i in range(0, len(strips), k)])
+        k = len(fv.v_px)
+        far_binary = _strips_binary(strips, k, self._far_threshold(), be.xm_per_px)
+        faint_cfg = self._far_faint_threshold()
         lines = {}
         for i, side in enumerate(sides):
             line = getattr(result, side)
             far = follow_line(far_binary[i * k:(i + 1) * k], fv, line.fit_px, be.xm_per_px, cfg, col0[i])
+            if far is None and faint_cfg is not None:
+                # A second look for faint far paint (none found, or what was found dropped as
+                # texture): a marking a pixel or two wide, blurred, on light concrete is less than
+                # rel_contrast of the road lighter than it.
+                faint = _strips_binary(strips[i * k:(i + 1) * k], k, faint_cfg, be.xm_per_px)
+                far = follow_line(faint, fv, line.fit_px, be.xm_per_px, cfg, col0[i])
             if far is not None:
                 lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,
                                       range_m=far.range_m if line.found else line.range_m)
@@ -777,7 +800,8 @@ class LaneFinder:
         So is a frame with one line that sure while a lane is held, when the second look finds
         both lines, each at least ``threshold.ridge.faint_pair_confidence`` sure (worn paint on
         one side: the held lane's width would otherwise stand in for the line).  The far field
-        is thresholded as before.
+        is thresholded on its own, with its own second look (``far.faint_contrast_max``, see
+        :meth:`extend_far`).
 
         Parameters
         ----------
