@@ -738,9 +738,10 @@ class LaneFinder:
     def extend_far(self, frame: np.ndarray, result: LaneResult, be: BirdsEye) -> LaneResult:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
 
-        A line that gets no far part (no marking found, or what was found dropped as texture) is
-        followed again in its strip thresholded for faint paint, the contrast asked capped at
-        ``far.faint_contrast_max``.
+        A line that gets no far part (no marking found, or what was found dropped as texture), or
+        one that ends within ``far.faint_short_m`` of the view's top edge, is followed again in
+        its strip thresholded for faint paint, the contrast asked capped at
+        ``far.faint_contrast_max``; that far part is taken when it reaches farther.
 
         Parameters
         ----------
@@ -778,12 +779,14 @@ class LaneFinder:
         for i, side in enumerate(sides):
             line = getattr(result, side)
             far = follow_line(far_binary[i * k:(i + 1) * k], fv, line.fit_px, be.xm_per_px, cfg, col0[i])
-            if far is None and faint_cfg is not None:
-                # A second look for faint far paint (none found, or what was found dropped as
-                # texture): a marking a pixel or two wide, blurred, on light concrete is less than
-                # rel_contrast of the road lighter than it.
+            if faint_cfg is not None and (far is None or far.range_m < fv.d_m[-1] + cfg.faint_short_m):
+                # A second look for faint far paint (none found, what was found dropped as texture,
+                # or a far part that ends soon): a marking a pixel or two wide, blurred, on light
+                # concrete is less than rel_contrast of the road lighter than it.
                 faint = _strips_binary(strips[i * k:(i + 1) * k], k, faint_cfg, be.xm_per_px)
-                far = follow_line(faint, fv, line.fit_px, be.xm_per_px, cfg, col0[i])
+                again = follow_line(faint, fv, line.fit_px, be.xm_per_px, cfg, col0[i])
+                if again is not None and (far is None or again.range_m > far.range_m):
+                    far = again
             if far is not None:
                 lines[side] = replace(line, far_fit_px=far.fit_px, far_end_px=far.end_px,
                                       range_m=far.range_m if line.found else line.range_m)
