@@ -944,14 +944,16 @@ class FarConfig(_Section):
         ahead a marking is a pixel or two wide and blurred: on light concrete it is less than
         ``rel_contrast`` of the road lighter than it (tuning seed 4: white dashes 0.10 m wide on
         concrete, none found beyond 40 m).  Chosen on tuning seeds 0-10 (exact set-ups, mean of
-        14 scenarios, before 0.9399): 16 0.9422 (every scenario equal or better; the seed-4
+        14 scenarios, before 0.9399), with ``faint_short_m`` 0: 16 0.9422 (every scenario equal or better; the seed-4
         sequences +0.025 to +0.050), 12 0.9428 (the harder challenge video's labels 0.7198 ->
         0.7158, against 0.7169 at 16); the cap on every far strip instead of as a second look,
         0.9431 at 16, but it lost far parts on four seed-1 scenes (-0.010 to -0.013: stray
         pixels of a darker road with vehicles ahead scattered them).  255 turns it off ...
     faint_short_m : float
-        ... and a line whose far part ends within this many metres beyond the view's top edge
-        gets the second look too, its far part taken when it reaches farther, m (0: only a line
+        ... and a line whose far part ends within this many metres of the far view's nearest
+        row (a frame row beyond the view's top edge: 0.9 m at 720p, 1.8 m at 640x360 with the
+        default set-up) gets the second look too, its far part taken when it reaches farther
+        (on reach alone: no check that the two agree where the first ends), m (0: only a line
         with no far part).  The first look often finds a far dash or two just beyond the view
         and none farther.  Tuning seeds 0-10 (second look at 16): 0 0.9422, 15 0.9426, 30
         0.9431 (every scenario equal or better; `straight` 4 0.970 -> 0.991, no sequence down by

@@ -739,9 +739,10 @@ class LaneFinder:
         """Follow the result's shown lines beyond the bird's-eye view (see :mod:`lanefinder.farfield`).
 
         A line that gets no far part (no marking found, or what was found dropped as texture), or
-        one that ends within ``far.faint_short_m`` of the view's top edge, is followed again in
-        its strip thresholded for faint paint, the contrast asked capped at
-        ``far.faint_contrast_max``; that far part is taken when it reaches farther.
+        one that ends within ``far.faint_short_m`` of the far view's nearest row (a frame row
+        beyond the view's top edge), is followed again in its strip thresholded for faint paint,
+        the contrast asked capped at ``far.faint_contrast_max``; that far part is taken when
+        there was none, or when it reaches farther.
 
         Parameters
         ----------
