@@ -227,9 +227,8 @@ def _along_bend(binary: np.ndarray, pixels: Pixels, found: SearchResult, fits: F
     if again is None:
         return found, fits
     new = _fit(again, m)
-    for old, fit in zip(fits, new, strict=True):
-        if old is not None and (fit is None or fit.confidence < old.confidence):
-            return found, fits
+    if any(old is not None and _conf(fit) < old.confidence for old, fit in zip(fits, new, strict=True)):
+        return found, fits
     if new[0] is not None and new[1] is not None and _pair_problems(new, track, m):
         return found, fits
     return replace(again, method=f"{found.method}+bend", histogram=found.histogram, bases_px=found.bases_px,

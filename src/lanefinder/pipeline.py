@@ -699,10 +699,7 @@ class LaneFinder:
 
     def _faint_threshold(self) -> ThresholdConfig | None:
         """Give the threshold settings of the second look for faint paint (None: no second look), made once."""
-        t = self.config.threshold
-        if t.strategy != "ridge" or t.ridge.faint_contrast_max >= t.ridge.rel_contrast_max:
-            return None
-        return self._ridge_variant(rel_contrast_max=t.ridge.faint_contrast_max)
+        return self._capped_variant(self.config.threshold.ridge.faint_contrast_max)
 
     def _far_threshold(self) -> ThresholdConfig:
         """Give the threshold settings for the far strips (the texture test at ``far.noise_factor``), made once."""
@@ -710,10 +707,18 @@ class LaneFinder:
 
     def _far_faint_threshold(self) -> ThresholdConfig | None:
         """Give the far strips' settings for a second look, capped at ``far.faint_contrast_max`` (None: none)."""
-        t, far = self.config.threshold, self.config.far
-        if t.strategy != "ridge" or far.faint_contrast_max >= t.ridge.rel_contrast_max:
+        far = self.config.far
+        return self._capped_variant(far.faint_contrast_max, noise_factor=far.noise_factor)
+
+    def _capped_variant(self, cap: int, **ridge) -> ThresholdConfig | None:
+        """Give a second look's settings: ``rel_contrast_max`` at ``cap`` (and ``ridge`` changed), made once.
+
+        None (no second look) unless the strategy is ``ridge`` and ``cap`` is below its ``rel_contrast_max``.
+        """
+        t = self.config.threshold
+        if t.strategy != "ridge" or cap >= t.ridge.rel_contrast_max:
             return None
-        return self._ridge_variant(noise_factor=far.noise_factor, rel_contrast_max=far.faint_contrast_max)
+        return self._ridge_variant(**ridge, rel_contrast_max=cap)
 
     def _ridge_variant(self, **ridge) -> ThresholdConfig:
         """Give the config's threshold settings with some ``threshold.ridge`` settings changed, made once."""
