@@ -320,6 +320,22 @@ def test_stills_of_a_synthetic_scene_are_scored_against_its_truth(tmp_path):
     assert len(scores) == 2 and all(s is not None and s >= 0.95 for s in scores)
 
 
+def test_synthetic_stills_see_the_road_make_eval_renders(tmp_path, monkeypatch):
+    # make stills-synthetic renders (or reuses) each seed's sequence as make eval does: on the
+    # seed's own stretch of road. Until 2026-11-29 it rendered every seed on the same stretch and
+    # re-rendered make eval's folders under it.
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("stills_synthetic", ROOT / "scripts" / "stills_synthetic.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    seen = []
+    monkeypatch.setattr(mod, "sequence", lambda *a, **k: seen.append(k) or a[3])
+    mod._sequence("straight", 101, tmp_path)
+    mod._sequence("straight", 101, tmp_path, same_road=True)
+    assert [k["road_from_seed"] for k in seen] == [True, False]
+
+
 def test_the_renderers_remainder_is_numpys():
     # The renderer takes remainders in float64, pass by pass (about four times as fast as float32's
     # fmod); its frames must stay those NumPy's remainder gave, bit for bit (checked on 52 frames of
