@@ -360,6 +360,7 @@ def test_counts_and_gains_follow_the_frame_rate():
     assert (fast.lost_after, fast.hold_gentle_frames, fast.max_misses) == (24, 50, 10)
     # the hold at the car: the same move per second, over the same time
     assert (fast.start_free_m, fast.start_both_frames) == (pytest.approx(0.05), 20)
+    assert fast.width_renew_frames == 10
     # A per-frame gain at 50 fps compounds over two frames to the gain of one frame at 25 fps.
     assert 1 - (1 - fast.width_smoothing) ** 2 == pytest.approx(cfg.width_smoothing)
     assert fast.smoothing**2 == pytest.approx(cfg.smoothing)
@@ -439,3 +440,46 @@ def test_the_parallel_limit_is_looser_only_with_the_configs_own_set_up():
     left, right = np.array([0.0, 0.55 / 30, -1.8]), np.array([0.0, -0.55 / 30, 1.8])
     assert check_parallel(left, right, 30.0, Measurer.build(default, scale).rules.cfg) == "parallel"
     assert check_parallel(left, right, 30.0, Measurer.build(own, scale).rules.cfg) is None
+
+
+def _started_on_a_wrong_width(tracker: Tracker) -> None:
+    """A lane started from the left line alone, then given the wrong partner 4.5 m away (no width to hold it to)."""
+    tracker.update(meas(LEFT), None, blind=True)
+    assert tracker.track.width_m is None
+    wrong = LEFT + np.array([0, 0, 4.5])
+    t = tracker.update(meas(LEFT), meas(wrong), blind=False)
+    assert t.right.found and tracker.track.width_m == pytest.approx(4.5, abs=0.01)
+    tracker.update(meas(LEFT), None, blind=False)  # the right line is a guess again: it may come back elsewhere
+
+
+def test_a_wrong_tracked_width_is_renewed_by_a_partner_refused_again_and_again_in_one_place(tracker):
+    # Synthetic worn paint (tuning seed 1): the lane held a width read once off a wrong line, and
+    # refused the true right line for the change of width on its last 23 frames (accuracy 0.62 -> 0.77).
+    _started_on_a_wrong_width(tracker)
+    k = tracker.cfg.width_renew_frames
+    for i in range(k - 1):
+        t = tracker.update(meas(LEFT), meas(RIGHT + np.array([0, 0, 0.05 * (i % 2)])), blind=False)
+        assert not t.right.found and t.reasons == ("width-change",)
+        tracker.update(meas(LEFT), None, blind=False)  # a frame without a pair neither counts nor breaks the row
+    t = tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    assert t.left.found and t.right.found and "width-change" not in t.reasons
+    assert tracker.track.width_m == pytest.approx(3.7, abs=0.05) and tracker.track.width_doubt[0] == 0
+
+
+def test_a_tracked_width_is_not_renewed_by_partners_that_wander_or_by_a_few_against_many():
+    wide = LEFT + np.array([0, 0, 4.5])
+    for cfg, before, partners in (
+            (TrackingConfig(), 0, [RIGHT + np.array([0, 0, d]) for d in (0.0, -0.4) * 5]),  # 3.7 and 3.3 m by turns
+            (TrackingConfig(width_renew_frames=0), 0, [RIGHT] * 10),  # renewal off
+            # a width made from ten pairs: ten refusals in a row do not overturn it (the eleventh would)
+            (TrackingConfig(), 9, [RIGHT] * 10)):
+        tracker = Tracker(replace(RULES, cfg=cfg))
+        _started_on_a_wrong_width(tracker)
+        for _ in range(before):
+            tracker.update(meas(LEFT), meas(wide), blind=False)
+        if before:
+            tracker.update(meas(LEFT), None, blind=False)
+        for right in partners:
+            t = tracker.update(meas(LEFT), meas(right), blind=False)
+            assert not t.right.found and "width-change" in t.reasons
+        assert tracker.track.width_m == pytest.approx(4.5, abs=0.01)

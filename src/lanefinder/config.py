@@ -748,6 +748,15 @@ class TrackingConfig(_Section):
         Plausible lane width, metres.
     max_width_change_m : float
         Largest change from the tracked width, metres.
+    width_renew_frames : int
+        A pair refused for the change of width alone this many times in a row (frames with no
+        pair between them do not count, nor break the row), its widths all within
+        ``width_renew_spread_m`` of their mean, and more times than pairs made the tracked
+        width, is taken, and its width becomes the tracked width: the track's width was the
+        wrong one (a lane started from one line, its width then read once off a wrong partner,
+        refused the true partner ever after) (0: never).
+    width_renew_spread_m : float
+        ... within this of their mean, metres.
     max_parallel_diff_m : float
         Largest change of the width along the view, metres, on a set-up that is not the
         config's own (the default one, a still's, or one self-calibration estimated).
@@ -839,6 +848,8 @@ class TrackingConfig(_Section):
     # bird's-eye view then stretches them), as at 22.4 s of the project video.
     max_width_m: Annotated[float, Field(gt=0, le=20)] = 4.8
     max_width_change_m: Annotated[float, Field(gt=0, le=10)] = 0.7
+    width_renew_frames: Annotated[int, Field(ge=0, le=10_000)] = 5
+    width_renew_spread_m: Annotated[float, Field(gt=0, le=10)] = 0.2
     max_parallel_diff_m: Annotated[float, Field(gt=0, le=20)] = 0.9
     # On a crest or in a sag the flat-road view parts or narrows a lane's lines ahead: with the
     # camera's own set-up, a pair whose width changes by more than 0.9 m is most often that, not

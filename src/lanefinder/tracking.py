@@ -12,7 +12,9 @@ The rules, in the order :func:`step` applies them:
    a line that was only inferred lately may come back elsewhere beside a line that is where
    the track expects it).
 2. A measured pair must pass the lane checks (:func:`~lanefinder.checks.pair_problems`); a
-   failing pair keeps the line nearer its track (or the more confident one without a track).
+   failing pair keeps the line nearer its track (or the more confident one without a track);
+   a pair refused for the change of width alone ``width_renew_frames`` times in a row at much
+   the same width, more times than pairs made the tracked width, renews it.
 3. One line alone must be confident to place the lane, and holds it only so long; without a lane,
    a less sure one places it once seen in the same place on ``weak_start_frames`` frames.
 4. After the lane was lost, a weak start must be seen again in the same place (``confirming``);
@@ -130,6 +132,12 @@ class Track:
         A lane was shown and then lost since the clip began: a weak start must then be
         confirmed (at the start of a clip, or for a single image, the first plausible lane is
         taken).
+    width_pairs : int
+        The pairs whose width the tracked width was made from (since the lane was last started).
+    width_doubt : tuple of (int, float)
+        The pairs refused in a row for the change of width alone, and their mean width (m):
+        at ``tracking.width_renew_frames`` of them, and more than ``width_pairs``, the width is
+        renewed (:func:`step`).
 
     Examples
     --------
@@ -144,6 +152,8 @@ class Track:
     since_both: int = 0
     candidate: Candidate | None = None
     was_lost: bool = False
+    width_pairs: int = 0
+    width_doubt: tuple[int, float] = (0, math.nan)
 
     @property
     def has_lane(self) -> bool:
@@ -289,7 +299,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
     """Give the tracking settings for a video at ``fps``: the same times as at ``cfg.reference_fps``.
 
     Counts of frames (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
-    ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``, ``start_both_frames``) scale with the
+    ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``, ``start_both_frames``,
+    ``width_renew_frames``) scale with the
     frame rate, and so does the per-frame move ``start_free_m`` (inversely); a per-frame smoothing
     gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
     ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
@@ -338,7 +349,8 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
         "smoothing": cfg.smoothing ** (1 / ratio),
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
         "width_smoothing": gain(cfg.width_smoothing), "start_free_m": cfg.start_free_m / ratio,
-        "start_both_frames": count(cfg.start_both_frames) if cfg.start_both_frames else 0, "reference_fps": fps})
+        "start_both_frames": count(cfg.start_both_frames) if cfg.start_both_frames else 0,
+        "width_renew_frames": count(cfg.width_renew_frames) if cfg.width_renew_frames else 0, "reference_fps": fps})
 
 
 def hold_frames(track: Track, cfg: TrackingConfig) -> int:
@@ -518,21 +530,50 @@ def _taken_lines(track: Track, measured: Pair, rules: Rules, reasons: list[str])
     return ok
 
 
+def _width_doubt(track: Track, problems: list[str], width_m: float, cfg: TrackingConfig) -> tuple[int, float]:
+    """Count a pair refused for the change of width alone (see ``tracking.width_renew_frames``).
+
+    Gives the new ``width_doubt``: one more with the mean updated when the width lies within
+    ``width_renew_spread_m`` of the mean so far, else a new row of one; (0, NaN) for a pair
+    refused otherwise, or taken.
+    """
+    if problems != ["width-change"] or cfg.width_renew_frames == 0:
+        return 0, math.nan
+    n, mean = track.width_doubt
+    if n and abs(width_m - mean) <= cfg.width_renew_spread_m:
+        return n + 1, mean + (width_m - mean) / (n + 1)
+    return 1, width_m
+
+
+def _renews(track: Track, doubt: tuple[int, float], cfg: TrackingConfig) -> bool:
+    """Tell whether the pairs refused in a row for the change of width renew the tracked width.
+
+    At ``width_renew_frames`` of them (0: never), and more of them than pairs made the tracked
+    width: a width read off many pairs is not overturned by a few (the harder challenge video:
+    a guard rail's foot refused five times in a row at one width, beside a width of hundreds).
+    """
+    return cfg.width_renew_frames > 0 and doubt[0] >= cfg.width_renew_frames and doubt[0] > track.width_pairs
+
+
 def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float], rules: Rules,
-                 reasons: list[str]) -> list[float]:
+                 reasons: list[str]) -> tuple[list[float], tuple[int, float]]:
     """Rule 2: a pair that fails the lane checks keeps one line; the confidences drop.
 
     Both drop by ``rejected_pair_confidence``, except that without a usable track (a blind
     start, or re-detecting after ``max_misses``) the surer line is kept and keeps its
     confidence when the other is too weak to start a lane alone (below
-    ``min_start_confidence``).
+    ``min_start_confidence``).  A pair refused for the change of width alone, the
+    ``tracking.width_renew_frames``-th time in a row at much the same width and more times
+    than pairs made the tracked width, is taken (the tracked width was wrong).  Also gives the
+    track's new ``width_doubt``.
     """
     c = rules.cfg
     lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
     holding = not track.needs_blind_search(c)
     problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c, holding=holding)
-    if not problems:
-        return conf
+    doubt = _width_doubt(track, problems, lane_width_m(lm, rm), c)
+    if not problems or _renews(track, doubt, c):
+        return conf, doubt
     reasons.extend(problems)
     # Keep the line that agrees better with the track, else the more confident one.
     if holding:
@@ -542,8 +583,8 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
     ok[drop] = False
     if not holding and conf[drop] < c.min_start_confidence:
         # A line too weak to start a lane alone says little against a sure one: the sure one keeps its say.
-        return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)]
-    return [v * c.rejected_pair_confidence for v in conf]
+        return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)], doubt
+    return [v * c.rejected_pair_confidence for v in conf], doubt
 
 
 def _weak_elsewhere(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float], rules: Rules) -> bool:
@@ -661,8 +702,11 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     reasons: list[str] = []
     ok = _taken_lines(track, measured, rules, reasons)
     conf = [m.confidence if m is not None else 0.0 for m in measured]
+    renew = False
     if ok[0] and ok[1]:
-        conf = _settle_pair(track, measured, ok, conf, rules, reasons)
+        conf, doubt = _settle_pair(track, measured, ok, conf, rules, reasons)
+        renew = ok[0] and ok[1] and _renews(track, doubt, c)
+        track = replace(track, width_doubt=(0, math.nan) if renew else doubt)
     conf_t = (conf[0], conf[1])
     if not (ok[0] or ok[1]):
         return _miss(track, reasons, conf_t, measured, blind, rules)
@@ -694,11 +738,14 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         # A weak start must be seen again in the same place before it is shown.
         reasons.append("confirming")
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
-    width_m = track.width_m
+    width_m, pairs = track.width_m, track.width_pairs
     if both:
         w_meas = lane_width_m(*fits)
-        width_m = w_meas if width_m is None else width_m + c.width_smoothing * (w_meas - width_m)
-    track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m)
+        # A renewed width is taken as measured: the tracked one was wrong.
+        width_m = w_meas if width_m is None or renew else width_m + c.width_smoothing * (w_meas - width_m)
+        pairs = 1 if renew else pairs + 1
+    track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m,
+                    width_pairs=pairs)
     if reason := check_offset(*fits, c, holding=not track.needs_blind_search(c)):
         # The lane these lines make would not hold the car: not this lane.
         reasons.append(reason)
