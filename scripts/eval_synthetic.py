@@ -67,15 +67,25 @@ def _same_lens(folder: Path, camera: CameraModel | None) -> bool:
             and np.allclose(had.dist_coeffs.ravel(), want.dist_coeffs.ravel(), atol=1e-6))
 
 
+def made_so(folder: Path, frames: int, seed: int, randomise: bool, camera: CameraModel | None = None,
+            road_from_seed: bool = False) -> bool:
+    """Tell whether ``folder`` holds a sequence rendered this way (seed, frames, look, lens, road)."""
+    meta = folder / "scenario.json"
+    if not (meta.is_file() and (folder / "gt.jsonl").is_file() and _same_lens(folder, camera)):
+        return False
+    try:
+        m = json.loads(meta.read_text())
+    except (OSError, ValueError):
+        return False
+    return (m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise
+            and ("start_s" in m) == road_from_seed)
+
+
 def sequence(name: str, frames: int, seed: int, folder: Path, randomise: bool, reuse: bool,
              camera: CameraModel | None = None, road_from_seed: bool = False) -> Path:
-    """Render a sequence, or keep the one in ``folder`` when it was made the same way."""
-    meta = folder / "scenario.json"
-    if reuse and meta.is_file() and (folder / "gt.jsonl").is_file() and _same_lens(folder, camera):
-        m = json.loads(meta.read_text())
-        if m.get("seed") == seed and m.get("frames") == frames and ("appearance" in m) == randomise \
-                and ("start_s" in m) == road_from_seed:
-            return folder
+    """Render a sequence, or keep the one in ``folder`` when it was made the same way (:func:`made_so`)."""
+    if reuse and made_so(folder, frames, seed, randomise, camera, road_from_seed):
+        return folder
     return write_sequence(name, frames, folder, seed, camera=camera, randomise=randomise,
                           road_from_seed=road_from_seed)
 

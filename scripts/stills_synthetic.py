@@ -1,15 +1,17 @@
 """Single stills of the synthetic scenes against their truth: the blind path on unknown mounts.
 
-    python scripts/stills_synthetic.py [--seeds 101 102] [--out output/eval] [--at 10 35]
+    python scripts/stills_synthetic.py [--seeds 101 102] [--out DIR] [--at 10 35]
                                        [--same-road] [--config FILE] [--json output/stills_synthetic.json]
 
 For each flat scenario (every one but `hills`) and seed, frames 10 and 35 of the randomised
-50-frame sequence in `OUT/<scenario>-<seed>` (rendered as `make eval` renders it when missing:
-each seed on its own stretch of road; `--same-road` as `eval_synthetic.py --same-road`) are
-found as stills, blind, with no history and without the sequence's set-up: `lanefinder image`
-with the default config (or `--config`), as a user with an unknown dashcam mount would run it.
-Each still is scored by TuSimple's rule against the truth (frames whose truth shows no paint are
-left out and counted). It prints the mean accuracy per scenario and over all stills.
+50-frame sequence in `OUT/<scenario>-<seed>` are found as stills, blind, with no history and
+without the sequence's set-up: `lanefinder image` with the default config (or `--config`), as a
+user with an unknown dashcam mount would run it. A sequence missing, or made otherwise, is
+rendered as `make eval` renders it: each seed on its own stretch of road (`--same-road`: every
+seed on the same stretch, as `eval_synthetic.py --same-road`, into `output/eval-same-road` unless
+`--out` says otherwise). Each still is scored by TuSimple's rule against the truth (frames whose
+truth shows no paint are left out and counted). It prints the mean accuracy per scenario and
+over all stills.
 
 Seeds 0-10 are the ones tuning may look at; 101 and up are held out (see the README).
 """
@@ -28,20 +30,20 @@ from lanefinder.synth import SCENARIOS
 from lanefinder.video import frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling scripts, also when loaded from a file
-from eval_synthetic import sequence
+from eval_synthetic import made_so, sequence
 from stills_vs_video import find_still
 
 FRAMES = 50  # the sequences of `make eval`
 
 
 def _sequence(name: str, seed: int, folder: Path, same_road: bool = False) -> Path:
-    """The 50-frame randomised sequence in ``folder``, rendered as `make eval` renders it when missing.
+    """The 50-frame randomised sequence in ``folder``, rendered as `make eval` does when missing or made otherwise.
 
     As `make eval` renders it means each seed on its own stretch of road (``road_from_seed``), so
     that a folder `make eval` rendered is used as it is, and one this script renders is the one
     `make eval` scores; ``same_road`` renders every seed on the same stretch instead.
     """
-    if not (folder / "gt.jsonl").is_file():
+    if not made_so(folder, FRAMES, seed, randomise=True, road_from_seed=not same_road):
         print(f"  rendering {folder} ...", flush=True)
     return sequence(name, FRAMES, seed, folder, randomise=True, reuse=True, road_from_seed=not same_road)
 
@@ -62,13 +64,16 @@ def score(folder: Path, at: list[int], finder: LaneFinder) -> list[float | None]
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, nargs="+", default=[101, 102])
-    ap.add_argument("--out", type=Path, default=Path("output/eval"))
+    ap.add_argument("--out", type=Path, default=None,
+                    help="the sequences' folder (default output/eval, output/eval-same-road with --same-road)")
     ap.add_argument("--at", type=int, nargs="+", default=[10, 35], help="frames of each sequence (0-49)")
     ap.add_argument("--same-road", action="store_true",
                     help="every seed on the same stretch of road (as eval_synthetic.py --same-road)")
     ap.add_argument("--config", type=Path, default=None, help="settings for the stills (default: the defaults)")
     ap.add_argument("--json", type=Path, default=Path("output/stills_synthetic.json"))
     a = ap.parse_args()
+    if a.out is None:  # the same-road renders never replace make eval's
+        a.out = Path("output/eval-same-road" if a.same_road else "output/eval")
     try:
         if any(not 0 <= i < FRAMES for i in a.at):
             raise LaneFinderError(f"--at takes frames 0-{FRAMES - 1}")

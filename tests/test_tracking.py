@@ -361,6 +361,8 @@ def test_counts_and_gains_follow_the_frame_rate():
     # the hold at the car: the same move per second, over the same time
     assert (fast.start_free_m, fast.start_both_frames) == (pytest.approx(0.05), 20)
     assert fast.width_renew_frames == 10
+    assert at_fps(cfg, 5.0).width_renew_frames == 2  # never renewed by one refusal
+    assert at_fps(TrackingConfig(width_renew_frames=0), 50.0).width_renew_frames == 0  # off stays off
     # A per-frame gain at 50 fps compounds over two frames to the gain of one frame at 25 fps.
     assert 1 - (1 - fast.width_smoothing) ** 2 == pytest.approx(cfg.width_smoothing)
     assert fast.smoothing**2 == pytest.approx(cfg.smoothing)
@@ -464,6 +466,19 @@ def test_a_wrong_tracked_width_is_renewed_by_a_partner_refused_again_and_again_i
     t = tracker.update(meas(LEFT), meas(RIGHT), blind=False)
     assert t.left.found and t.right.found and "width-change" not in t.reasons
     assert tracker.track.width_m == pytest.approx(3.7, abs=0.05) and tracker.track.width_doubt[0] == 0
+    assert tracker.track.width_pairs == 1  # the renewing pair: a width made afresh
+
+
+def test_a_pair_refused_for_more_than_the_change_of_width_breaks_the_row(tracker):
+    _started_on_a_wrong_width(tracker)
+    k = tracker.cfg.width_renew_frames
+    for _ in range(k - 1):
+        tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    bent = RIGHT + np.array([3e-3, 0, 0])  # refused for its bend too: not a width the track doubts
+    t = tracker.update(meas(LEFT), meas(bent), blind=False)
+    assert "width-change" in t.reasons and "curvature" in t.reasons and tracker.track.width_doubt[0] == 0
+    t = tracker.update(meas(LEFT), meas(RIGHT), blind=False)
+    assert not t.right.found and tracker.track.width_doubt[0] == 1, "a new row"
 
 
 def test_a_tracked_width_is_not_renewed_by_partners_that_wander_or_by_a_few_against_many():

@@ -750,13 +750,14 @@ class TrackingConfig(_Section):
         Largest change from the tracked width, metres.
     width_renew_frames : int
         A pair refused for the change of width alone this many times in a row (frames with no
-        pair between them do not count, nor break the row), its widths all within
-        ``width_renew_spread_m`` of their mean, and more times than pairs made the tracked
-        width, is taken, and its width becomes the tracked width: the track's width was the
-        wrong one (a lane started from one line, its width then read once off a wrong partner,
-        refused the true partner ever after) (0: never).
+        pair between them do not count, nor break the row; a pair refused for anything else
+        breaks it), each width within ``width_renew_spread_m`` of the mean of those before it,
+        and more times than pairs made the tracked width, is taken, and its width becomes the
+        tracked width: the track's width was the wrong one (a lane started from one line, its
+        width then read once off a wrong partner, refused the true partner ever after) (0:
+        never).
     width_renew_spread_m : float
-        ... within this of their mean, metres.
+        How far, in metres, each width in that row may lie from the mean of those before it.
     max_parallel_diff_m : float
         Largest change of the width along the view, metres, on a set-up that is not the
         config's own (the default one, a still's, or one self-calibration estimated).

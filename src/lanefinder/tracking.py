@@ -13,8 +13,9 @@ The rules, in the order :func:`step` applies them:
    the track expects it).
 2. A measured pair must pass the lane checks (:func:`~lanefinder.checks.pair_problems`); a
    failing pair keeps the line nearer its track (or the more confident one without a track);
-   a pair refused for the change of width alone ``width_renew_frames`` times in a row at much
-   the same width, more times than pairs made the tracked width, renews it.
+   a pair refused for the change of width alone ``width_renew_frames`` times in a row, each
+   width near the mean of those before it, more times than pairs made the tracked width,
+   renews it.
 3. One line alone must be confident to place the lane, and holds it only so long; without a lane,
    a less sure one places it once seen in the same place on ``weak_start_frames`` frames.
 4. After the lane was lost, a weak start must be seen again in the same place (``confirming``);
@@ -133,7 +134,8 @@ class Track:
         confirmed (at the start of a clip, or for a single image, the first plausible lane is
         taken).
     width_pairs : int
-        The pairs whose width the tracked width was made from (since the lane was last started).
+        How many pairs the tracked width was made from, since the lane was started or its
+        width last renewed (the renewing pair counts as one).
     width_doubt : tuple of (int, float)
         The pairs refused in a row for the change of width alone, and their mean width (m):
         at ``tracking.width_renew_frames`` of them, and more than ``width_pairs``, the width is
@@ -300,13 +302,14 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
 
     Counts of frames (``max_misses``, ``lost_after``, ``hold_gentle_frames``,
     ``max_one_line_frames``, ``start_frames``, ``weak_start_frames``, ``start_both_frames``,
-    ``width_renew_frames``) scale with the
-    frame rate, and so does the per-frame move ``start_free_m`` (inversely); a per-frame smoothing
-    gain g becomes ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
+    ``width_renew_frames``) scale with the frame rate, and so does the per-frame move
+    ``start_free_m`` (inversely); a per-frame smoothing gain g becomes
+    ``1 - (1 - g) ** (reference_fps / fps)`` (the retention ``smoothing`` becomes
     ``smoothing ** (reference_fps / fps)``), so a lane is held, confirmed and smoothed over the
     same seconds; a lone line still needs at least two sightings to start a lane after a lost one
-    when it needed two or more.  Rates within 2% of the reference, and rates that are unknown or
-    outside 5-240 fps (misreported), keep the settings as they are.
+    when it needed two or more, and a width two refusals to be renewed.  Rates within 2% of the
+    reference, and rates that are unknown or outside 5-240 fps (misreported), keep the settings
+    as they are.
 
     Parameters
     ----------
@@ -350,7 +353,9 @@ def at_fps(cfg: TrackingConfig, fps: float) -> TrackingConfig:
         "smoothing_fast_gain": gain(cfg.smoothing_fast_gain), "smoothing_min_gain": gain(cfg.smoothing_min_gain),
         "width_smoothing": gain(cfg.width_smoothing), "start_free_m": cfg.start_free_m / ratio,
         "start_both_frames": count(cfg.start_both_frames) if cfg.start_both_frames else 0,
-        "width_renew_frames": count(cfg.width_renew_frames) if cfg.width_renew_frames else 0, "reference_fps": fps})
+        "width_renew_frames": max(min(2, cfg.width_renew_frames), count(cfg.width_renew_frames))
+        if cfg.width_renew_frames else 0,
+        "reference_fps": fps})
 
 
 def hold_frames(track: Track, cfg: TrackingConfig) -> int:
@@ -534,8 +539,8 @@ def _width_doubt(track: Track, problems: list[str], width_m: float, cfg: Trackin
     """Count a pair refused for the change of width alone (see ``tracking.width_renew_frames``).
 
     Gives the new ``width_doubt``: one more with the mean updated when the width lies within
-    ``width_renew_spread_m`` of the mean so far, else a new row of one; (0, NaN) for a pair
-    refused otherwise, or taken.
+    ``width_renew_spread_m`` of the mean of the row so far, else a new row of one; (0, NaN) for
+    a pair refused for anything else too, or taken.
     """
     if problems != ["width-change"] or cfg.width_renew_frames == 0:
         return 0, math.nan
@@ -556,7 +561,7 @@ def _renews(track: Track, doubt: tuple[int, float], cfg: TrackingConfig) -> bool
 
 
 def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float], rules: Rules,
-                 reasons: list[str]) -> tuple[list[float], tuple[int, float]]:
+                 reasons: list[str]) -> tuple[list[float], tuple[int, float], bool]:
     """Rule 2: a pair that fails the lane checks keeps one line; the confidences drop.
 
     Both drop by ``rejected_pair_confidence``, except that without a usable track (a blind
@@ -565,15 +570,17 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
     ``min_start_confidence``).  A pair refused for the change of width alone, the
     ``tracking.width_renew_frames``-th time in a row at much the same width and more times
     than pairs made the tracked width, is taken (the tracked width was wrong).  Also gives the
-    track's new ``width_doubt``.
+    track's new ``width_doubt`` and whether the pair renews the width.
     """
     c = rules.cfg
     lm, rm = measured[0].fit_m, measured[1].fit_m  # type: ignore[union-attr]
     holding = not track.needs_blind_search(c)
     problems = pair_problems(lm, rm, track.tracked_width(c), rules.lookahead_m, c, holding=holding)
     doubt = _width_doubt(track, problems, lane_width_m(lm, rm), c)
-    if not problems or _renews(track, doubt, c):
-        return conf, doubt
+    if not problems:
+        return conf, doubt, False
+    if _renews(track, doubt, c):
+        return conf, (0, math.nan), True
     reasons.extend(problems)
     # Keep the line that agrees better with the track, else the more confident one.
     if holding:
@@ -583,8 +590,8 @@ def _settle_pair(track: Track, measured: Pair, ok: list[bool], conf: list[float]
     ok[drop] = False
     if not holding and conf[drop] < c.min_start_confidence:
         # A line too weak to start a lane alone says little against a sure one: the sure one keeps its say.
-        return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)], doubt
-    return [v * c.rejected_pair_confidence for v in conf], doubt
+        return [v if i != drop else v * c.rejected_pair_confidence for i, v in enumerate(conf)], doubt, False
+    return [v * c.rejected_pair_confidence for v in conf], doubt, False
 
 
 def _weak_elsewhere(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[float], rules: Rules) -> bool:
@@ -704,9 +711,8 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     conf = [m.confidence if m is not None else 0.0 for m in measured]
     renew = False
     if ok[0] and ok[1]:
-        conf, doubt = _settle_pair(track, measured, ok, conf, rules, reasons)
-        renew = ok[0] and ok[1] and _renews(track, doubt, c)
-        track = replace(track, width_doubt=(0, math.nan) if renew else doubt)
+        conf, doubt, renew = _settle_pair(track, measured, ok, conf, rules, reasons)
+        track = replace(track, width_doubt=doubt)
     conf_t = (conf[0], conf[1])
     if not (ok[0] or ok[1]):
         return _miss(track, reasons, conf_t, measured, blind, rules)
