@@ -43,9 +43,10 @@ def _sequence(name: str, seed: int, folder: Path, same_road: bool = False) -> Pa
     that a folder `make eval` rendered is used as it is, and one this script renders is the one
     `make eval` scores; ``same_road`` renders every seed on the same stretch instead.
     """
-    if not made_so(folder, FRAMES, seed, randomise=True, road_from_seed=not same_road):
-        print(f"  rendering {folder} ...", flush=True)
-    return sequence(name, FRAMES, seed, folder, randomise=True, reuse=True, road_from_seed=not same_road)
+    if made_so(folder, FRAMES, seed, randomise=True, road_from_seed=not same_road):
+        return folder
+    print(f"  rendering {folder} ...", flush=True)
+    return sequence(name, FRAMES, seed, folder, randomise=True, reuse=False, road_from_seed=not same_road)
 
 
 def score(folder: Path, at: list[int], finder: LaneFinder) -> list[float | None]:

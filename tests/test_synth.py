@@ -306,14 +306,20 @@ def test_a_vehicle_behind_a_crest_shows_only_above_its_edge(camera):
     assert whole[:2, 1].min() > whole[2:, 1].max()  # on a level road the rear is drawn whole
 
 
-def test_stills_of_a_synthetic_scene_are_scored_against_its_truth(tmp_path):
-    # scripts/stills_synthetic.py (make stills-synthetic): blind stills, default set-up. Measured on
-    # a straight road of seed 3 at 640x360: 0.984 at frames 10 and 35 (seeds 5 and 7: 0.94-1.0).
+def _stills_synthetic():
+    """scripts/stills_synthetic.py as a module."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("stills_synthetic", ROOT / "scripts" / "stills_synthetic.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
+    return mod
+
+
+def test_stills_of_a_synthetic_scene_are_scored_against_its_truth(tmp_path):
+    # scripts/stills_synthetic.py (make stills-synthetic): blind stills, default set-up. Measured on
+    # a straight road of seed 3 at 640x360: 0.984 at frames 10 and 35 (seeds 5 and 7: 0.94-1.0).
+    mod = _stills_synthetic()
     folder = write_sequence("straight", 36, tmp_path, seed=3, camera=udacity_camera().scaled_to((640, 360)),
                             randomise=True)
     scores = mod.score(folder, [10, 35], LaneFinder())
@@ -324,11 +330,7 @@ def test_synthetic_stills_see_the_road_make_eval_renders(tmp_path, monkeypatch):
     # make stills-synthetic renders (or reuses) each seed's sequence as make eval does: on the
     # seed's own stretch of road. Until 2026-11-29 it rendered every seed on the same stretch and
     # re-rendered make eval's folders under it.
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("stills_synthetic", ROOT / "scripts" / "stills_synthetic.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = _stills_synthetic()
     seen = []
     monkeypatch.setattr(mod, "sequence", lambda *a, **k: seen.append(k) or a[3])
     mod._sequence("straight", 101, tmp_path)
