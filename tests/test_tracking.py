@@ -146,6 +146,27 @@ def test_a_lane_is_started_from_one_line_only_when_it_is_confident(tracker):
     assert t.right.fit_m[2] - t.left.fit_m[2] == pytest.approx(3.7 * np.hypot(1.0, LEFT[1]))
 
 
+def test_a_lane_does_not_start_bending_tighter_than_a_road(tracker):
+    # Glare leaving a metre of paint beside the car bent a lone line's fit to a radius of 18 m
+    # (synthetic `glare` seed 8); the lane it started refused the right lines as jumps.
+    tight = np.array([1 / 30, 0.0, -1.8])  # radius 15 m
+    t = tracker.update(meas(tight), None, blind=True)
+    assert t.state == LOST and "start-bend" in t.reasons
+    t = tracker.update(meas(tight), meas(tight + np.array([0.0, 0.0, 3.7])), blind=True)
+    assert t.state == LOST and "start-bend" in t.reasons  # a pair as well
+    t = tracker.update(meas(np.array([1 / 60, 0.0, -1.8])), None, blind=True)  # 30 m: a hairpin
+    assert t.state == REDETECT and "start-bend" not in t.reasons
+    # A tracked lane is not checked: its lines answer to the jump limits.
+    t = tracker.update(meas(tight), None, blind=False)
+    assert "start-bend" not in t.reasons
+
+
+def test_the_start_bend_limit_can_be_turned_off():
+    rules = replace(RULES, cfg=TrackingConfig(min_start_radius_m=0))
+    t = Tracker(rules).update(meas(np.array([1 / 30, 0.0, -1.8])), None, blind=True)
+    assert t.state == REDETECT
+
+
 def test_one_line_alone_holds_the_lane_only_so_long(tracker):
     tracker.update(meas(LEFT), meas(RIGHT), blind=True)
     n = tracker.cfg.max_one_line_frames

@@ -27,6 +27,7 @@ __all__ = [
     "check_offset",
     "check_one_line",
     "check_parallel",
+    "check_start_bend",
     "check_width",
     "check_width_change",
     "is_yellow",
@@ -331,6 +332,44 @@ def pair_problems(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m: floa
              check_parallel(left_m, right_m, lookahead_m, cfg), check_curvature(left_m, right_m, cfg),
              check_width_change(left_m, right_m, tracked_width_m, cfg))
     return [reason for reason in found if reason]
+
+
+def check_start_bend(fits_m: tuple[np.ndarray, np.ndarray], re_detecting: bool, cfg: TrackingConfig) -> str | None:
+    """Fail a lane that would start bending tighter than ``min_start_radius_m``.
+
+    Roads bend no tighter than a hairpin's 20-30 m.  A lane read as bending tighter when it
+    starts (no usable track: no lane, or ``max_misses`` reached) comes from a fit bent by a few
+    rows of paint (glare leaving a metre or two of marking beside the car), and the lane that
+    follows refuses the right lines as jumps from it.  A lane already tracked is not checked.
+
+    Parameters
+    ----------
+    fits_m : tuple of (3,) ndarray
+        The left and right metre fits of the lane to start (a lone line's lane is implied:
+        :func:`lanefinder.tracking.implied_lane`).
+    re_detecting : bool
+        There is no usable track.
+    cfg : TrackingConfig
+        Holds ``min_start_radius_m`` (0: no limit).
+
+    Returns
+    -------
+    str or None
+        ``"start-bend"``, or None.
+
+    Examples
+    --------
+    >>> from lanefinder.config import TrackingConfig
+    >>> tight = (np.array([1 / 30, 0, -1.8]), np.array([1 / 30, 0, 1.9]))  # radius 15 m
+    >>> check_start_bend(tight, True, TrackingConfig())
+    'start-bend'
+    >>> check_start_bend(tight, False, TrackingConfig()) is None  # a tracked lane is not checked
+    True
+    """
+    if not re_detecting or cfg.min_start_radius_m <= 0:
+        return None
+    bend = abs(curvature_per_m(fits_m[0]) + curvature_per_m(fits_m[1])) / 2
+    return "start-bend" if bend * cfg.min_start_radius_m > 1 else None
 
 
 def check_one_line(confidence: float, re_detecting: bool, frames_since_both: int, cfg: TrackingConfig) -> str | None:

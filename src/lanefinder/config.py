@@ -791,6 +791,11 @@ class TrackingConfig(_Section):
         Confidence a line needs to start (or re-place) a lane alone; both lines of a pair need
         it to start a lane at once after a lost one, or to replace a held lane elsewhere when
         re-detecting (``weak-pair``).
+    min_start_radius_m : float
+        A lane (one line or a pair) may not start bending tighter than this radius, m (reason
+        ``start-bend``; 0: no limit).  A hairpin bends at 20-30 m; a tighter start comes from a
+        fit bent by a metre or two of paint (glare: synthetic ``glare`` seed 8, a lone line read
+        at 18 m, 0.6694 -> 0.7178).  A tracked lane is not checked.
     still_start_confidence : float
         ... in a single still (``lanefinder image``), where no later frame can confirm or
         correct a start: the other line is then drawn as inferred at the default lane width.
@@ -873,6 +878,7 @@ class TrackingConfig(_Section):
     hold_gentle_radius_m: Annotated[float, Field(ge=0, le=1e7)] = 150.0
     max_one_line_frames: Annotated[int, Field(gt=0, le=100_000)] = 50
     min_start_confidence: Fraction = 0.45
+    min_start_radius_m: Annotated[float, Field(ge=0, le=1e7)] = 20.0
     still_start_confidence: Fraction = 0.3
     start_frames: Annotated[int, Field(gt=0, le=100_000)] = 3
     weak_start_confidence: Fraction = 0.3

@@ -36,7 +36,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .checks import check_confidence, check_jump, check_offset, check_one_line, lines_close, pair_problems
+from .checks import (
+    check_confidence,
+    check_jump,
+    check_offset,
+    check_one_line,
+    check_start_bend,
+    lines_close,
+    pair_problems,
+)
 from .config import TrackingConfig
 from .geometry import Scale, curvature_per_m, lane_width_m, m_to_px, poly_x
 from .lane import LOST, REDETECT, SIDES, TRACKING, Line
@@ -721,6 +729,11 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
     ahead = _seen_ahead_m(measured, ok, rules)
+    if reason := check_start_bend(fits, track.needs_blind_search(c), c):
+        # A lane may not start bending tighter than any road does (a fit bent by a few rows of
+        # paint in glare): it waits for lines that read as a road.
+        reasons.append(reason)
+        return _miss(track, reasons, conf_t, measured, blind, rules)
     weak_started = False
     if ok[0] != ok[1]:
         lone = check_one_line(conf[0] if ok[0] else conf[1], track.needs_blind_search(c), track.since_both, c)
