@@ -156,9 +156,28 @@ def test_a_lane_does_not_start_bending_tighter_than_a_road(tracker):
     assert t.state == LOST and "start-bend" in t.reasons  # a pair as well
     t = tracker.update(meas(np.array([1 / 60, 0.0, -1.8])), None, blind=True)  # 30 m: a hairpin
     assert t.state == REDETECT and "start-bend" not in t.reasons
-    # A tracked lane is not checked: its lines answer to the jump limits.
-    t = tracker.update(meas(tight), None, blind=False)
-    assert "start-bend" not in t.reasons
+
+
+def test_a_lane_that_bends_tight_is_kept_and_re_placed():
+    # A hairpin's lines, their shapes shared (as the fit's pull makes them), looked at 10 m ahead.
+    tracker = Tracker(replace(RULES, lookahead_m=10.0))
+
+    def lane(radius_m: float) -> tuple[Line, Line]:
+        return meas(np.array([1 / (2 * radius_m), 0.0, -1.85])), meas(np.array([1 / (2 * radius_m), 0.0, 1.85]))
+
+    # Tracked from 30 m down to 16 m frame by frame: the limit is for starts only.
+    for i, radius_m in enumerate(np.linspace(30, 16, 57)):
+        t = tracker.update(*lane(radius_m), blind=i == 0)
+        assert t.left.found and t.right.found and "start-bend" not in t.reasons, (radius_m, t.reasons)
+    # Searched blind after misses, lines as tight as the held lane re-place it.
+    for _ in range(tracker.cfg.max_misses):
+        tracker.update(None, None, blind=False)
+    assert tracker.needs_blind_search
+    t = tracker.update(*lane(16.0), blind=True)
+    assert t.left.found and t.right.found and "start-bend" not in t.reasons, t.reasons
+    # The same lines with no lane held do not start one.
+    t = Tracker(tracker.rules).update(*lane(16.0), blind=True)
+    assert t.state == LOST and "start-bend" in t.reasons
 
 
 def test_the_start_bend_limit_can_be_turned_off():

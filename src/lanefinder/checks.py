@@ -334,13 +334,16 @@ def pair_problems(left_m: np.ndarray, right_m: np.ndarray, tracked_width_m: floa
     return [reason for reason in found if reason]
 
 
-def check_start_bend(fits_m: tuple[np.ndarray, np.ndarray], re_detecting: bool, cfg: TrackingConfig) -> str | None:
+def check_start_bend(fits_m: tuple[np.ndarray, np.ndarray], re_detecting: bool, cfg: TrackingConfig,
+                     held_m: tuple[np.ndarray, np.ndarray] | None = None) -> str | None:
     """Fail a lane that would start bending tighter than ``min_start_radius_m``.
 
     Roads bend no tighter than a hairpin's 20-30 m.  A lane read as bending tighter when it
-    starts (no usable track: no lane, or ``max_misses`` reached) comes from a fit bent by a few
-    rows of paint (glare leaving a metre or two of marking beside the car), and the lane that
-    follows refuses the right lines as jumps from it.  A lane already tracked is not checked.
+    starts afresh (no usable track: no lane, or ``max_misses`` reached) comes from a fit bent by
+    a few rows of paint (glare leaving a metre or two of marking beside the car), and the lane
+    that follows refuses the right lines as jumps from it.  Lines that re-place a held lane
+    which itself bends that tight are not refused: the road does.  A lane tracked frame to
+    frame is not checked.
 
     Parameters
     ----------
@@ -351,6 +354,8 @@ def check_start_bend(fits_m: tuple[np.ndarray, np.ndarray], re_detecting: bool, 
         There is no usable track.
     cfg : TrackingConfig
         Holds ``min_start_radius_m`` (0: no limit).
+    held_m : tuple of (3,) ndarray, optional
+        The metre fits of the lane still held, if any.
 
     Returns
     -------
@@ -363,13 +368,18 @@ def check_start_bend(fits_m: tuple[np.ndarray, np.ndarray], re_detecting: bool, 
     >>> tight = (np.array([1 / 30, 0, -1.8]), np.array([1 / 30, 0, 1.9]))  # radius 15 m
     >>> check_start_bend(tight, True, TrackingConfig())
     'start-bend'
-    >>> check_start_bend(tight, False, TrackingConfig()) is None  # a tracked lane is not checked
+    >>> check_start_bend(tight, False, TrackingConfig()) is None  # a lane tracked frame to frame
+    True
+    >>> check_start_bend(tight, True, TrackingConfig(), held_m=tight) is None  # a held lane that tight
     True
     """
     if not re_detecting or cfg.min_start_radius_m <= 0:
         return None
-    bend = abs(curvature_per_m(fits_m[0]) + curvature_per_m(fits_m[1])) / 2
-    return "start-bend" if bend * cfg.min_start_radius_m > 1 else None
+
+    def tight(fits: tuple[np.ndarray, np.ndarray]) -> bool:
+        return abs(curvature_per_m(fits[0]) + curvature_per_m(fits[1])) / 2 * cfg.min_start_radius_m > 1
+
+    return "start-bend" if tight(fits_m) and not (held_m is not None and tight(held_m)) else None
 
 
 def check_one_line(confidence: float, re_detecting: bool, frames_since_both: int, cfg: TrackingConfig) -> str | None:

@@ -795,7 +795,9 @@ class TrackingConfig(_Section):
         A lane (one line or a pair) may not start bending tighter than this radius, m (reason
         ``start-bend``; 0: no limit).  A hairpin bends at 20-30 m; a tighter start comes from a
         fit bent by a metre or two of paint (glare: synthetic ``glare`` seed 8, a lone line read
-        at 18 m, 0.6694 -> 0.7178).  A tracked lane is not checked.
+        at 18 m, 0.6694 -> 0.7178).  Checked only without a usable track (no lane, or
+        ``max_misses`` reached), and not against lines that re-place a held lane which bends
+        as tight itself.
     still_start_confidence : float
         ... in a single still (``lanefinder image``), where no later frame can confirm or
         correct a start: the other line is then drawn as inferred at the default lane width.

@@ -16,13 +16,15 @@ The rules, in the order :func:`step` applies them:
    a pair refused for the change of width alone ``width_renew_frames`` times in a row, each
    width near the mean of those before it, more times than pairs made the tracked width,
    renews it.
-3. One line alone must be confident to place the lane, and holds it only so long; without a lane,
+3. Without a usable track, a lane may not start bending tighter than ``min_start_radius_m``
+   unless the lane still held bends as tight (``start-bend``).
+4. One line alone must be confident to place the lane, and holds it only so long; without a lane,
    a less sure one places it once seen in the same place on ``weak_start_frames`` frames.
-4. After the lane was lost, a weak start must be seen again in the same place (``confirming``);
+5. After the lane was lost, a weak start must be seen again in the same place (``confirming``);
    while a lane is held and searched blind, a weak pair elsewhere does not replace it
    (``weak-pair``).
-5. The lane implied by what is left must hold the car (``offset``).
-6. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
+6. The lane implied by what is left must hold the car (``offset``).
+7. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
    a rejected frame is a miss, and after ``max_misses`` the next frame is searched blind,
    after ``hold_gentle_frames`` the lane is lost (after ``lost_after`` in a tight bend: see
    :func:`hold_frames`; frames whose held lines are both seen far ahead count less: see
@@ -729,7 +731,8 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
     fits = implied_lane(measured[0].fit_m if ok[0] else None,  # type: ignore[union-attr]
                         measured[1].fit_m if ok[1] else None, width)  # type: ignore[union-attr]
     ahead = _seen_ahead_m(measured, ok, rules)
-    if reason := check_start_bend(fits, track.needs_blind_search(c), c):
+    held = track.fits_m if track.has_lane else None
+    if reason := check_start_bend(fits, track.needs_blind_search(c), c, held):  # type: ignore[arg-type]
         # A lane may not start bending tighter than any road does (a fit bent by a few rows of
         # paint in glare): it waits for lines that read as a road.
         reasons.append(reason)
@@ -749,7 +752,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
 
     both = ok[0] and ok[1]
     if _weak_elsewhere(track, fits, ok, conf, rules):
-        # Its sightings are counted, for when the held lane is lost (rule 4).
+        # Its sightings are counted, for when the held lane is lost (rule 5).
         reasons.append("weak-pair")
         cand, _ = _confirm(track, fits, True, rules, ahead)
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
