@@ -710,3 +710,65 @@ def test_the_run_summary_says_when_the_starting_setup_was_kept_against_refused_e
     changed = _setup_lines(SetupState(source="estimated", frames=7, updates=2, refused=1, horizon_px=418.0,
                                       height_m=1.22, focal_px=1161.0))
     assert "2 change(s)" in changed[0] and "1 sure estimate(s) refused" in changed[1]
+
+
+def _early_looks(monkeypatch, owns, cfg=None):
+    """Run a calibrator's early looks over frames 1.. with ``owns[i]`` as frame i's own set-up (None: none)."""
+    import lanefinder.selfcal as selfcal_mod
+    from lanefinder.selfcal import SelfCalibrator, StillLook
+
+    config = cfg or Config()
+    be = LaneFinder(config).birdseye((1280, 720))
+    cal = SelfCalibrator(config, be.camera, be)
+    frame = np.zeros((720, 1280, 3), np.uint8)
+    looked, taken = [], []
+    for i, own in enumerate(owns):
+        monkeypatch.setattr(selfcal_mod, "look_at_still",
+                            lambda *_a, own=own, i=i: looked.append(i) or StillLook(own=own, horizon=None))
+        if i:
+            taken.append(cal.look_again(frame))
+        cal.offer(frame)  # (a black frame: no evidence, no estimate)
+    return cal, looked, taken
+
+
+def test_early_frames_own_setups_are_taken_once_two_agree(monkeypatch):
+    from lanefinder.selfcal import horizon_setup, setup_of
+
+    be = LaneFinder().birdseye((1280, 720))
+    a, b, far = (horizon_setup(be, row) for row in (440.0, 441.5, 430.0))
+    # Frames looked at: 2, 4, 6, ... (every_frames 2); frame 2 alone is not enough, frame 4 agrees with it.
+    cal, looked, taken = _early_looks(monkeypatch, [None, None, a, None, b, None, a])
+    assert looked == [2, 4]  # and none once a set-up is taken
+    assert [t is not None for t in taken] == [False, False, False, True, False, False]
+    assert cal.state.source == "first-frame" and setup_of(cal.current)[0] == pytest.approx(441.5, abs=0.5)
+    # Two that disagree (10 px apart) are not taken; the next that agrees with the latter is.
+    cal, _, taken = _early_looks(monkeypatch, [None, None, a, None, far, None, far])
+    assert [t is not None for t in taken] == [False, False, False, False, False, True]
+    # Not beyond first_look_frames, and not at all with 0.
+    cal, looked, _ = _early_looks(monkeypatch, [None, None, a, None, a], Config.model_validate(
+        {"selfcal": {"first_look_frames": 3}}))
+    assert looked == [2] and cal.state.source == "default"
+    cal, looked, _ = _early_looks(monkeypatch, [None, None, a, None, a], Config.model_validate(
+        {"selfcal": {"first_look_frames": 0}}))
+    assert looked == [] and cal.state.source == "default"
+
+
+def test_a_video_takes_the_setup_two_early_frames_agree_on(monkeypatch):
+    import lanefinder.selfcal as selfcal_mod
+    from lanefinder.selfcal import StillLook, horizon_setup, setup_of
+
+    be = LaneFinder().birdseye((1280, 720))
+    own = horizon_setup(be, 440.0)
+    seen = []
+
+    def look(frame, config, current):
+        seen.append(len(seen))
+        return StillLook(own=None if len(seen) == 1 else own, horizon=None)  # the first frame gives none
+
+    monkeypatch.setattr(selfcal_mod, "look_at_still", look)
+    finder = LaneFinder(self_calibrate=True)
+    frame = np.zeros((720, 1280, 3), np.uint8)
+    sources = [finder.process(frame).setup for _ in range(6)]
+    # Frame 0 gives none; frames 2 and 4 give the same set-up: from frame 4 on it is in use.
+    assert sources == ["default"] * 4 + ["first-frame"] * 2
+    assert setup_of(finder.birdseye((1280, 720)))[0] == pytest.approx(440.0, abs=0.5)

@@ -60,9 +60,10 @@ class SetupState:
     ----------
     source : str
         ``config`` (given by the config), ``default`` (self-calibration has no sure estimate
-        yet), ``first-frame`` (the set-up the video's first frame gave alone, as a still's, in use
-        until a sure estimate), ``lines`` (no sure estimate yet; the set-up in use pitched to where the
-        lane lines measured meet: :meth:`SelfCalibrator.offer_lines`) or ``estimated``
+        yet), ``first-frame`` (the set-up the video's first frame gave alone, as a still's, or two
+        early frames agreed on: :meth:`SelfCalibrator.look_again`; in use until a sure estimate),
+        ``lines`` (no sure estimate yet; the set-up in use pitched to where the lane lines
+        measured meet: :meth:`SelfCalibrator.offer_lines`) or ``estimated``
         (self-calibration's estimate is in use, or a sure estimate confirmed the set-up in use
         or was refused in its favour by the frame check, ``selfcal.estimate_check``).
     frames : int
@@ -207,6 +208,7 @@ class SelfCalibrator:
         self._new = 0
         self._horizons: deque = deque(maxlen=self.cfg.lines_window_frames)
         self._lines_taken = 0
+        self._look_candidate: BirdsEye | None = None
         self.state = SetupState.of("default", current)
 
     @property
@@ -249,6 +251,59 @@ class SelfCalibrator:
                 and prefer(look.horizon)):
             new = look.horizon
         if new is None:
+            return None
+        self.current = new
+        self.state = SetupState.of("first-frame", new)
+        return new
+
+    def look_again(self, frame: np.ndarray) -> BirdsEye | None:
+        """Look at an early frame alone, as :meth:`first_look` looks at the first, while the default is in use.
+
+        Only while the set-up in use is still the default (no first frame's set-up, no sure
+        estimate), on the frames :meth:`offer` looks at (one in ``every_frames``) among the
+        first ``selfcal.first_look_frames``; call it before :meth:`offer` is given the frame.
+        The frame's own set-up (:func:`look_at_still`; its horizon's set-up is not used: on a
+        curve the row where its lines meet drifts with the bend) is kept as a candidate and
+        taken once the next candidate agrees with it: horizons within
+        ``selfcal.first_look_agree_px`` (per 720 rows) and camera heights within
+        ``FIRST_LOOK_AGREE_HEIGHT``.  The later of the two is taken, and ``state.source``
+        becomes ``first-frame``, as for the first frame's.
+
+        Parameters
+        ----------
+        frame : (H, W, 3) uint8 ndarray
+            The next raw frame, BGR.
+
+        Returns
+        -------
+        BirdsEye or None
+            The set-up to use from this frame on, or None to keep the current one.
+
+        Examples
+        --------
+        >>> from lanefinder import LaneFinder
+        >>> be = LaneFinder().birdseye((1280, 720))
+        >>> cal = SelfCalibrator(Config(), be.camera, be)
+        >>> cal.offer(np.zeros((720, 1280, 3), np.uint8)) is None  # frame 0
+        True
+        >>> cal.offer(np.zeros((720, 1280, 3), np.uint8)) is None  # frame 1
+        True
+        >>> cal.look_again(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source  # frame 2: no lines
+        (True, 'default')
+        """
+        every = max(1, self.cfg.every_frames)
+        if not (self.state.source == "default" and 0 < self._seen < self.cfg.first_look_frames
+                and self._seen % every == 0):
+            return None
+        new = look_at_still(frame, self.config, self.current).own
+        if new is None:
+            return None
+        before, self._look_candidate = self._look_candidate, new
+        if before is None:
+            return None
+        (h0, m0, _), (h1, m1, _) = setup_of(before), setup_of(new)
+        limit = self.cfg.first_look_agree_px * self.current.frame_size[1] / 720
+        if not (abs(h1 - h0) <= limit and abs(m1 / m0 - 1) <= FIRST_LOOK_AGREE_HEIGHT):
             return None
         self.current = new
         self.state = SetupState.of("first-frame", new)
@@ -646,6 +701,9 @@ def _plausible_for_a_still(current: BirdsEye, new: BirdsEye, height_m: float, cf
     return low <= height_m <= high and not abs(setup_error(current, new)["car_m"]) > cfg.still_max_car_m
 
 
+#: Two early frames' own set-ups agree (:meth:`SelfCalibrator.look_again`) when their camera heights
+#: differ by at most this fraction (and their horizons by ``selfcal.first_look_agree_px``).
+FIRST_LOOK_AGREE_HEIGHT = 0.1
 #: Frames in a row that :meth:`SelfCalibrator.offer_lines` counts as one look at the road.
 LINES_CORRELATED_FRAMES = 5
 #: The most :meth:`SelfCalibrator.offer_lines` pitches a video's set-up at a time, a fraction of the
