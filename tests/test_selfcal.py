@@ -712,6 +712,17 @@ def test_the_run_summary_says_when_the_starting_setup_was_kept_against_refused_e
     assert "2 change(s)" in changed[0] and "1 sure estimate(s) refused" in changed[1]
 
 
+def _with_height(be, horizon_px: float, height_m: float):
+    """A set-up of ``be``'s camera pitched to a horizon row and mounted at another height."""
+    from lanefinder.autosetup import RoadEstimate
+    from lanefinder.birdseye import src_vanishing_point
+    from lanefinder.selfcal import _setup_from
+
+    est = RoadEstimate(camera_matrix=be.camera.camera_matrix, vp=(src_vanishing_point(be.src_px)[0], horizon_px),
+                       height_m=height_m, centre_m=0.0, focal_source="camera file", evidence=())
+    return _setup_from(be, est)
+
+
 def _early_looks(monkeypatch, owns, cfg=None):
     """Run a calibrator's early looks over frames 1.. with ``owns[i]`` as frame i's own set-up (None: none)."""
     import lanefinder.selfcal as selfcal_mod
@@ -744,6 +755,13 @@ def test_early_frames_own_setups_are_taken_once_two_agree(monkeypatch):
     # Two that disagree (10 px apart) are not taken; the next that agrees with the latter is.
     cal, _, taken = _early_looks(monkeypatch, [None, None, a, None, far, None, far])
     assert [t is not None for t in taken] == [False, False, False, False, False, True]
+    # A look that gives none leaves the candidate: frame 6 agrees with frame 2.
+    cal, looked, taken = _early_looks(monkeypatch, [None, None, a, None, None, None, a])
+    assert looked == [2, 4, 6] and [t is not None for t in taken] == [False] * 5 + [True]
+    # Horizons that agree but camera heights 15% apart are not taken.
+    high = _with_height(be, 440.0, setup_of(a)[1] * 1.15)
+    cal, _, taken = _early_looks(monkeypatch, [None, None, a, None, high])
+    assert not any(t is not None for t in taken) and cal.state.source == "default"
     # Not beyond first_look_frames, and not at all with 0.
     cal, looked, _ = _early_looks(monkeypatch, [None, None, a, None, a], Config.model_validate(
         {"selfcal": {"first_look_frames": 3}}))

@@ -1196,13 +1196,15 @@ class SelfCalConfig(_Section):
     first_frame : bool
         A video's first frame is looked at alone, as a still is (its own set-up, the still
         gates, else its horizon's set-up as ``still_horizon`` says), and the set-up it gives
-        is used until self-calibration has a sure estimate (telemetry ``setup`` = ``first-frame``).
+        is used until self-calibration has a sure estimate (telemetry ``setup`` = ``first-frame``;
+        so is the set-up two early frames agree on, below).  Off, no frame is looked at alone.
     first_look_frames : int
-        When the first frame gives no set-up, the frames self-calibration looks at among the
-        first this many (one in ``every_frames``) are each looked at alone too, while the set-up
-        in use is still the default; a frame's own set-up (no horizon's set-up: on a curve the
-        row where the lines meet drifts) is taken, as the first frame's is, once two of them
-        agree (0 or 1: the first frame only) ...
+        When the first frame gives no set-up, frames 1 to this - 1 whose index is a multiple of
+        ``every_frames`` are each looked at alone too, while the set-up in use is still the
+        default; a frame's own set-up (no horizon's set-up: on a curve the row where the lines
+        meet drifts) is taken, as the first frame's is, when it agrees with the one the frame
+        looked at before it gave (two looks in a row that give one; at most 2 * ``every_frames``:
+        never; 0: none looked at) ...
     first_look_agree_px : float
         ... their horizons within this many pixels per 720 rows and their camera heights
         within 10% (one look alone took, at frame 12 of the harder challenge video, a horizon

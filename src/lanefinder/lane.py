@@ -115,9 +115,10 @@ class LaneResult:
         The reasons (named checks) that rejected something this frame.
     setup : str
         Where the bird's-eye set-up came from: ``config``, ``default`` (self-calibration
-        has no sure estimate yet), ``first-frame`` (a video's first frame gave it alone, until a
-        sure estimate), ``lines`` (in a video: the default or first frame's set-up pitched to where
-        the lane lines measured meet, :meth:`lanefinder.selfcal.SelfCalibrator.offer_lines`),
+        has no sure estimate yet), ``first-frame`` (a video's first frame gave it alone, or two
+        early frames agreed on it, until a sure estimate), ``lines`` (in a video: the default or
+        first frame's set-up pitched to where the lane lines measured meet,
+        :meth:`lanefinder.selfcal.SelfCalibrator.offer_lines`),
         ``estimated`` (self-calibration's estimate, or the set-up in use once a sure estimate
         confirmed it or was refused in its favour: :class:`lanefinder.selfcal.SetupState`) or,
         for a still,

@@ -476,10 +476,11 @@ class LaneFinder:
                 self.use_birdseye(first)
                 self.reset()
                 be = first
-        elif self.self_calibrate and self.config.selfcal.first_frame and selfcal_wanted(self.config):
+        elif (self.self_calibrate and self.selfcal is not None and self.config.selfcal.first_frame
+              and selfcal_wanted(self.config)):
             # While still on the default set-up, early frames looked at alone as the first was (two
             # that agree): on synthetic unknown mounts the default's frames scored 0.17 below exact.
-            again = self.selfcal.look_again(frame)  # type: ignore[union-attr]
+            again = self.selfcal.look_again(frame)
             if again is not None:
                 self.use_birdseye(again)
                 self.reset()

@@ -260,14 +260,15 @@ class SelfCalibrator:
         """Look at an early frame alone, as :meth:`first_look` looks at the first, while the default is in use.
 
         Only while the set-up in use is still the default (no first frame's set-up, no sure
-        estimate), on the frames :meth:`offer` looks at (one in ``every_frames``) among the
-        first ``selfcal.first_look_frames``; call it before :meth:`offer` is given the frame.
-        The frame's own set-up (:func:`look_at_still`; its horizon's set-up is not used: on a
-        curve the row where its lines meet drifts with the bend) is kept as a candidate and
-        taken once the next candidate agrees with it: horizons within
-        ``selfcal.first_look_agree_px`` (per 720 rows) and camera heights within
-        ``FIRST_LOOK_AGREE_HEIGHT``.  The later of the two is taken, and ``state.source``
-        becomes ``first-frame``, as for the first frame's.
+        estimate), on frames 1 to ``selfcal.first_look_frames`` - 1 whose index is a multiple of
+        ``every_frames`` (those :meth:`offer` looks at while it looks fast); call it before
+        :meth:`offer` is given the frame.  The frame's own set-up (:func:`look_at_still`; its
+        horizon's set-up is not used: on a curve the row where its lines meet drifts with the
+        bend) becomes the candidate, and is taken when it agrees with the candidate before it
+        (the last frame that gave one): horizons within ``selfcal.first_look_agree_px`` (per
+        720 rows) and camera heights within ``FIRST_LOOK_AGREE_HEIGHT``.  The later of the two
+        is taken, and ``state.source`` becomes ``first-frame``, as for the first frame's (what
+        an unsure estimate left in the state is kept).
 
         Parameters
         ----------
@@ -291,9 +292,8 @@ class SelfCalibrator:
         >>> cal.look_again(np.zeros((720, 1280, 3), np.uint8)) is None, cal.state.source  # frame 2: no lines
         (True, 'default')
         """
-        every = max(1, self.cfg.every_frames)
         if not (self.state.source == "default" and 0 < self._seen < self.cfg.first_look_frames
-                and self._seen % every == 0):
+                and self._seen % self.cfg.every_frames == 0):
             return None
         new = look_at_still(frame, self.config, self.current).own
         if new is None:
@@ -306,7 +306,8 @@ class SelfCalibrator:
         if not (abs(h1 - h0) <= limit and abs(m1 / m0 - 1) <= FIRST_LOOK_AGREE_HEIGHT):
             return None
         self.current = new
-        self.state = SetupState.of("first-frame", new)
+        self.state = SetupState.of("first-frame", new, frames=self.state.frames, updates=self.state.updates,
+                                   refused=self.state.refused, quality=self.state.quality)
         return new
 
     def _prepare(self, frame: np.ndarray) -> np.ndarray:

@@ -203,8 +203,9 @@ def _setup_lines(st: SetupState) -> list[str]:
         return ["set-up: self-calibration found too few straight-road frames; the default set-up was used "
                 "(run `lanefinder setup` for this camera)"]
     if st.source == "first-frame":
-        return [f"set-up: self-calibration found too few straight-road frames; the set-up the first frame gave "
-                f"alone was used: horizon row {st.horizon_px:.0f} px, camera {st.height_m:.2f} m over the road "
+        return ["set-up: self-calibration found too few straight-road frames; the set-up the first frame gave "
+                f"alone (or two early frames agreed on) was used: horizon row {st.horizon_px:.0f} px, "
+                f"camera {st.height_m:.2f} m over the road "
                 "(run `lanefinder setup` for this camera)"]
     if st.source == "lines":
         return ["set-up: self-calibration found too few straight-road frames; the starting set-up was used, "
