@@ -465,26 +465,24 @@ class LaneFinder:
         _check_frame(frame)
         be = self.birdseye((frame.shape[1], frame.shape[0]))
         self.last_still = self._in_still and not self.self_calibrate  # measured with a still's rules
-        if self.self_calibrate and (self.selfcal is None or self.selfcal.current.frame_size != be.frame_size):
-            self.selfcal = SelfCalibrator(self.config, be.camera, be)
-            self._curvature_per_m = math.nan
-            # The first frame alone, as a still: a set-up of its own, used until a sure estimate (on
-            # synthetic unknown mounts the frames before the first estimate scored 0.43-0.59).
-            first = (self.selfcal.first_look(frame, lambda other: self._seen_better(frame, be, other))
-                     if self.config.selfcal.first_frame and selfcal_wanted(self.config) else None)
-            if first is not None:
-                self.use_birdseye(first)
+        if self.self_calibrate:
+            new = None
+            looks = self.config.selfcal.first_frame and selfcal_wanted(self.config)
+            if self.selfcal is None or self.selfcal.current.frame_size != be.frame_size:
+                self.selfcal = SelfCalibrator(self.config, be.camera, be)
+                self._curvature_per_m = math.nan
+                # The first frame alone, as a still: a set-up of its own, used until a sure estimate (on
+                # synthetic unknown mounts the frames before the first estimate scored 0.43-0.59).
+                if looks:
+                    new = self.selfcal.first_look(frame, lambda other: self._seen_better(frame, be, other))
+            elif looks:
+                # While still on the default set-up, early frames looked at alone as the first was (two
+                # that agree): on synthetic unknown mounts the default's frames scored 0.17 below exact.
+                new = self.selfcal.look_again(frame)
+            if new is not None:
+                self.use_birdseye(new)
                 self.reset()
-                be = first
-        elif (self.self_calibrate and self.selfcal is not None and self.config.selfcal.first_frame
-              and selfcal_wanted(self.config)):
-            # While still on the default set-up, early frames looked at alone as the first was (two
-            # that agree): on synthetic unknown mounts the default's frames scored 0.17 below exact.
-            again = self.selfcal.look_again(frame)
-            if again is not None:
-                self.use_birdseye(again)
-                self.reset()
-                be = again
+                be = new
         self.last_birdseye = be
         view = be.warp(frame)
         binary = threshold(view, self.config.threshold, be.xm_per_px)
