@@ -538,3 +538,57 @@ def test_a_tracked_width_is_not_renewed_by_partners_that_wander_or_by_a_few_agai
             t = tracker.update(meas(LEFT), meas(right), blind=False)
             assert not t.right.found and "width-change" in t.reasons
         assert tracker.track.width_m == pytest.approx(4.5, abs=0.01)
+
+
+def test_a_weak_first_pair_does_not_make_the_lanes_width(tracker):
+    # Synthetic worn paint (tuning seed 1): a first partner 0.32 sure read a lane 3.5 m wide as
+    # 4.5 m, and the right line inferred from the left one stayed 1 m out for 20 frames.
+    tracker.update(meas(LEFT), None, blind=True)
+    weak = tracker.cfg.min_confidence + 0.05
+    assert weak < tracker.cfg.min_start_confidence
+    t = tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 4.5]), weak), blind=False)
+    assert t.right.found  # the pair is taken as it is this frame ...
+    assert tracker.track.width_m == pytest.approx(3.7) and tracker.track.width_pairs == 0  # ... not its width
+    for _ in range(20):
+        t = tracker.update(meas(LEFT), None, blind=False)
+    assert t.right.inferred and t.right.fit_m[2] - t.left.fit_m[2] == pytest.approx(3.7, abs=0.05)
+    # Later pairs move the width from the default a little at a time.
+    tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 3.5])), blind=False)
+    assert tracker.track.width_m == pytest.approx(3.7 - tracker.cfg.width_smoothing * 0.2, abs=1e-3)
+    assert tracker.track.width_pairs == 1
+
+
+def test_a_sure_first_pair_or_the_setting_off_makes_the_width_as_measured():
+    weak = TrackingConfig().min_confidence + 0.05
+    for cfg, conf in ((TrackingConfig(), 0.9), (TrackingConfig(sure_first_width=False), weak)):
+        tracker = Tracker(replace(RULES, cfg=cfg))
+        tracker.update(meas(LEFT), None, blind=True)
+        tracker.update(meas(LEFT), meas(LEFT + np.array([0, 0, 4.5]), conf), blind=False)
+        assert tracker.track.width_m == pytest.approx(4.5, abs=0.01) and tracker.track.width_pairs == 1
+
+
+def test_a_weak_pair_confirmed_after_a_lost_lane_makes_its_width(tracker):
+    # Seen start_frames times in one place before it is shown: that is the evidence a sure line gives.
+    _lose(tracker)
+    weak = tracker.cfg.min_confidence + 0.05
+    wide = LEFT + np.array([0, 0, 3.3])
+    for _ in range(tracker.cfg.start_frames):
+        t = tracker.update(meas(LEFT, weak), meas(wide, weak), blind=True)
+    assert t.state == REDETECT and t.left.found and t.right.found
+    assert tracker.track.width_m == pytest.approx(3.3, abs=0.01)
+
+
+def test_a_self_calibrating_finder_keeps_a_weak_first_width():
+    # Its set-up (the default one, then estimates) reads the road's metres only as well as the
+    # estimate: the default width is no better a guess than a weak pair's.
+    from lanefinder.pipeline import LaneFinder
+
+    for self_calibrate, want in ((False, True), (True, False)):
+        finder = LaneFinder(Config(), self_calibrate=self_calibrate)
+        finder.birdseye((1280, 720))
+        assert finder.measurer.rules.cfg.sure_first_width is want
+    own = Config().model_copy(update={"birdseye": BirdseyeConfig(src=((580.0, 462.0), (704.0, 462.0),
+                                                                      (1034.0, 675.0), (280.5, 675.0)))})
+    finder = LaneFinder(own, self_calibrate=True)  # a config with its own set-up does not self-calibrate
+    finder.birdseye((1280, 720))
+    assert finder.measurer.rules.cfg.sure_first_width is True

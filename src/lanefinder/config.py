@@ -791,6 +791,20 @@ class TrackingConfig(_Section):
         Confidence a line needs to start (or re-place) a lane alone; both lines of a pair need
         it to start a lane at once after a lost one, or to replace a held lane elsewhere when
         re-detecting (``weak-pair``).
+    sure_first_width : bool
+        A lane's width is first measured from a pair both of whose lines are at least
+        ``min_start_confidence`` sure, or from a pair confirmed after a lost lane (seen in one
+        place on ``start_frames`` frames); a weaker pair leaves the default width
+        (``search.lane_width_m``) in use, and later pairs move it by ``width_smoothing`` a frame
+        and are held to it (``max_width_change_m``).  A line inferred from the other keeps the
+        width the lane was first given for as long as only one line is seen (synthetic ``worn``
+        seed 1: the first pair's right line, 0.32 sure, read a lane 3.5 m wide as 4.5 m, and the
+        right line inferred from the left one stayed 1 m out for 20 frames).  A lane narrower
+        than the default by more than ``max_width_change_m`` whose first pair is weak is refused
+        until the width is renewed (``width_renew_frames``).  Not used by a self-calibrating
+        run (:class:`~lanefinder.pipeline.LaneFinder` turns it off): its set-up, estimated or
+        the default, reads the road's metres only as well as the estimate, and the width
+        measured is the better guess.
     min_start_radius_m : float
         A lane (one line or a pair) may not start bending tighter than this radius, m (reason
         ``start-bend``; 0: no limit).  A hairpin bends at 20-30 m; a tighter start comes from a
@@ -880,6 +894,7 @@ class TrackingConfig(_Section):
     hold_gentle_radius_m: Annotated[float, Field(ge=0, le=1e7)] = 150.0
     max_one_line_frames: Annotated[int, Field(gt=0, le=100_000)] = 50
     min_start_confidence: Fraction = 0.45
+    sure_first_width: bool = True
     min_start_radius_m: Annotated[float, Field(ge=0, le=1e7)] = 20.0
     still_start_confidence: Fraction = 0.3
     start_frames: Annotated[int, Field(gt=0, le=100_000)] = 3

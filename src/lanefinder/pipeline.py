@@ -378,15 +378,28 @@ class LaneFinder:
             return False
         return self.config.selfcal.fast_frames > 0 if self.selfcal is None else self.selfcal.searching
 
+    def _measuring_config(self) -> Config:
+        """Give the config frames are measured with: a self-calibrating run's keeps a weak first width.
+
+        The default lane width is a width on the road; a set-up estimated from the video (or the
+        default one) reads the road's metres only as well as the estimate, so the width a weak
+        pair measures is kept (``tracking.sure_first_width`` off).
+        """
+        cfg = self.config
+        if not (self.self_calibrate and selfcal_wanted(cfg) and cfg.tracking.sure_first_width):
+            return cfg
+        return cfg.model_copy(update={"tracking": cfg.tracking.model_copy(update={"sure_first_width": False})})
+
     def _build_measurer(self, be: BirdsEye) -> None:
         """Build the measuring settings for a set-up (their variants when a frame first needs them)."""
-        self._measurer = Measurer.build(self.config, Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px))
+        scale = Scale(be.xm_per_px, be.ym_per_px, be.size[1], be.car_x_px)
+        self._measurer = Measurer.build(self._measuring_config(), scale)
         self._measurer_variants = {}
 
     def _measurer_variant(self, name: str, fit: dict | None = None, tracking: dict | None = None) -> Measurer:
         """Give the set-up's measuring settings with some ``fit`` and ``tracking`` settings changed, made once."""
         if name not in self._measurer_variants:
-            cfg = self.config
+            cfg = self._measuring_config()
             changed = cfg.model_copy(update={"fit": cfg.fit.model_copy(update=fit or {}),
                                              "tracking": cfg.tracking.model_copy(update=tracking or {})})
             self._measurer_variants[name] = Measurer.build(changed, self.measurer.scale)
