@@ -10,7 +10,7 @@ import pytest
 
 from lanefinder.autosetup import SetupOptions, auto_setup
 from lanefinder.camera import CameraModel
-from lanefinder.config import Config
+from lanefinder.config import BirdseyeConfig, Config
 from lanefinder.evaluate import read_ground_truth, setup_error
 from lanefinder.pipeline import LaneFinder, birdseye_from_config, camera_from_config
 from lanefinder.selfcal import wanted
@@ -790,3 +790,21 @@ def test_a_video_takes_the_setup_two_early_frames_agree_on(monkeypatch):
     # Frame 0 gives none; frames 2 and 4 give the same set-up: from frame 4 on it is in use.
     assert sources == ["default"] * 4 + ["first-frame"] * 2
     assert setup_of(finder.birdseye((1280, 720)))[0] == pytest.approx(440.0, abs=0.5)
+
+
+def test_a_self_calibrating_finder_keeps_a_weak_first_width():
+    # Its set-up (the default one, then estimates) reads the road's metres only as well as the
+    # estimate: the default width is no better a guess than a weak pair's (tracking.sure_first_width).
+    for self_calibrate, want in ((False, True), (True, False)):
+        finder = LaneFinder(Config(), self_calibrate=self_calibrate)
+        finder.birdseye((1280, 720))
+        assert finder.measurer.rules.cfg.sure_first_width is want
+    finder = LaneFinder(Config(), self_calibrate=True)
+    finder.birdseye((1280, 720))
+    relaxed = finder._frame_measurer()  # no lane yet, still searching: the relaxed settings
+    assert relaxed is not finder.measurer and relaxed.rules.cfg.sure_first_width is False
+    own = Config().model_copy(update={"birdseye": BirdseyeConfig(src=((580.0, 462.0), (704.0, 462.0),
+                                                                      (1034.0, 675.0), (280.5, 675.0)))})
+    finder = LaneFinder(own, self_calibrate=True)  # a config with its own set-up does not self-calibrate
+    finder.birdseye((1280, 720))
+    assert finder.measurer.rules.cfg.sure_first_width is True

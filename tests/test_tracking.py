@@ -567,28 +567,33 @@ def test_a_sure_first_pair_or_the_setting_off_makes_the_width_as_measured():
         assert tracker.track.width_m == pytest.approx(4.5, abs=0.01) and tracker.track.width_pairs == 1
 
 
+@pytest.mark.parametrize("weak_side", [0, 1])
+def test_a_weak_pair_on_a_clips_first_frame_leaves_the_default_width(weak_side):
+    tracker = Tracker(replace(RULES, default_width_m=3.5))
+    conf = [0.9, 0.9]
+    conf[weak_side] = tracker.cfg.min_confidence + 0.05
+    t = tracker.update(meas(LEFT, conf[0]), meas(LEFT + np.array([0, 0, 4.5]), conf[1]), blind=True)
+    assert t.left.found and t.right.found
+    assert tracker.track.width_m == pytest.approx(3.5) and tracker.track.width_pairs == 0
+
+
 def test_a_weak_pair_confirmed_after_a_lost_lane_makes_its_width(tracker):
-    # Seen start_frames times in one place before it is shown: that is the evidence a sure line gives.
+    # Seen twice in one place before it is shown: evidence enough to make the width too.
     _lose(tracker)
     weak = tracker.cfg.min_confidence + 0.05
     wide = LEFT + np.array([0, 0, 3.3])
-    for _ in range(tracker.cfg.start_frames):
-        t = tracker.update(meas(LEFT, weak), meas(wide, weak), blind=True)
+    t = tracker.update(meas(LEFT, weak), meas(wide, weak), blind=True)
+    assert t.state == LOST and "confirming" in t.reasons
+    t = tracker.update(meas(LEFT, weak), meas(wide, weak), blind=True)
     assert t.state == REDETECT and t.left.found and t.right.found
-    assert tracker.track.width_m == pytest.approx(3.3, abs=0.01)
+    assert tracker.track.width_m == pytest.approx(3.3, abs=0.01) and tracker.track.width_pairs == 1
 
 
-def test_a_self_calibrating_finder_keeps_a_weak_first_width():
-    # Its set-up (the default one, then estimates) reads the road's metres only as well as the
-    # estimate: the default width is no better a guess than a weak pair's.
-    from lanefinder.pipeline import LaneFinder
-
-    for self_calibrate, want in ((False, True), (True, False)):
-        finder = LaneFinder(Config(), self_calibrate=self_calibrate)
-        finder.birdseye((1280, 720))
-        assert finder.measurer.rules.cfg.sure_first_width is want
-    own = Config().model_copy(update={"birdseye": BirdseyeConfig(src=((580.0, 462.0), (704.0, 462.0),
-                                                                      (1034.0, 675.0), (280.5, 675.0)))})
-    finder = LaneFinder(own, self_calibrate=True)  # a config with its own set-up does not self-calibrate
-    finder.birdseye((1280, 720))
-    assert finder.measurer.rules.cfg.sure_first_width is True
+def test_a_weak_pair_after_a_lane_restarted_from_one_line_does_not_make_its_width(tracker):
+    _lose(tracker)
+    for _ in range(tracker.cfg.start_frames):
+        t = tracker.update(meas(LEFT), None, blind=True)
+    assert t.state == REDETECT and tracker.track.was_lost and tracker.track.width_m is None
+    weak = tracker.cfg.min_confidence + 0.05
+    tracker.update(meas(LEFT, weak), meas(LEFT + np.array([0, 0, 3.3]), weak), blind=False)
+    assert tracker.track.width_m == pytest.approx(3.7) and tracker.track.width_pairs == 0

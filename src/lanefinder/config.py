@@ -792,19 +792,21 @@ class TrackingConfig(_Section):
         it to start a lane at once after a lost one, or to replace a held lane elsewhere when
         re-detecting (``weak-pair``).
     sure_first_width : bool
-        A lane's width is first measured from a pair both of whose lines are at least
-        ``min_start_confidence`` sure, or from a pair confirmed after a lost lane (seen in one
-        place on ``start_frames`` frames); a weaker pair leaves the default width
-        (``search.lane_width_m``) in use, and later pairs move it by ``width_smoothing`` a frame
-        and are held to it (``max_width_change_m``).  A line inferred from the other keeps the
-        width the lane was first given for as long as only one line is seen (synthetic ``worn``
-        seed 1: the first pair's right line, 0.32 sure, read a lane 3.5 m wide as 4.5 m, and the
-        right line inferred from the left one stayed 1 m out for 20 frames).  A lane narrower
-        than the default by more than ``max_width_change_m`` whose first pair is weak is refused
-        until the width is renewed (``width_renew_frames``).  Not used by a self-calibrating
-        run (:class:`~lanefinder.pipeline.LaneFinder` turns it off): its set-up, estimated or
-        the default, reads the road's metres only as well as the estimate, and the width
-        measured is the better guess.
+        A lane's first pair sets its width only when both its lines are at least
+        ``min_start_confidence`` sure, or when it restarts a lane after a lost one (a weak start
+        is then confirmed: seen twice in one place).  After a weaker first pair, shown as found,
+        the default width (``search.lane_width_m``) stands in: later pairs move it by
+        ``width_smoothing`` a frame and are held to it (``max_width_change_m``).  A line inferred
+        from the other keeps the width the lane was first given for as long as only one line is
+        seen (synthetic ``worn`` seed 1: the first pair's right line, 0.32 sure, read a lane 3.5 m
+        wide as 4.5 m, and the right line inferred from the left one stayed 1 m out for 20
+        frames).  Where the true lane is narrower or wider than the default by more than
+        ``max_width_change_m`` and its first pair is weak, its pairs are refused (one line kept,
+        the other inferred at the default width) until the width is renewed
+        (``width_renew_frames``).  Not used by a self-calibrating run
+        (:class:`~lanefinder.pipeline.LaneFinder` turns it off): its set-up, estimated or the
+        default, reads the road's metres only as well as the estimate, and the width measured
+        is then no worse a guess than the default.
     min_start_radius_m : float
         A lane (one line or a pair) may not start bending tighter than this radius, m (reason
         ``start-bend``; 0: no limit).  A hairpin bends at 20-30 m; a tighter start comes from a

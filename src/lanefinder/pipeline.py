@@ -297,7 +297,8 @@ class LaneFinder:
     self_calibrate : bool
         Estimate the set-up from the frames while they come (:mod:`lanefinder.selfcal`; for
         the frames of one video); :func:`lanefinder.selfcal.wanted` tells when a config asks
-        for it.  Until the first sure estimate, frames are measured as ``selfcal.unsure_*`` say.
+        for it.  Until the first sure estimate, frames are measured as ``selfcal.unsure_*`` say;
+        ``tracking.sure_first_width`` is off in such a run.
 
     Attributes
     ----------
@@ -426,8 +427,9 @@ class LaneFinder:
     def measurer(self) -> Measurer:
         """The measuring settings in pixels for the current set-up (after the first frame), as configured.
 
-        While a self-calibrating run is unsure of its set-up, :meth:`process` measures frames
-        of a road read as straight with these relaxed as ``selfcal.unsure_*`` say.
+        A self-calibrating run's have ``tracking.sure_first_width`` off; while it is unsure of
+        its set-up, :meth:`process` measures frames of a road read as straight with these
+        relaxed as ``selfcal.unsure_*`` say.
         """
         if self._measurer is None:
             raise LaneFinderError("no frame size yet: call birdseye() or process() first")

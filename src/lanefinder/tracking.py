@@ -23,9 +23,10 @@ The rules, in the order :func:`step` applies them:
 5. After the lane was lost, a weak start must be seen again in the same place (``confirming``);
    while a lane is held and searched blind, a weak pair elsewhere does not replace it
    (``weak-pair``).
-6. The lane implied by what is left must hold the car (``offset``).  A lane's first width is
-   the first pair's when both its lines are sure enough to start a lane (or it was confirmed
-   after a lost lane), else the default width (``sure_first_width``).
+6. A lane's first pair sets its width only when both its lines are sure enough to start a lane
+   (or it restarts a lane after a lost one, confirmed); after a weaker one the default width
+   stands in, which later pairs move and are held to (``sure_first_width``).  The lane implied
+   by what is left must hold the car (``offset``).
 7. Otherwise the fits are smoothed in (a line seen again after being inferred snaps to it);
    a rejected frame is a miss, and after ``max_misses`` the next frame is searched blind,
    after ``hold_gentle_frames`` the lane is lost (after ``lost_after`` in a tight bend: see
@@ -130,7 +131,8 @@ class Track:
     fits_m : tuple of (ndarray or None)
         The tracked left and right metre fits; (None, None) without a lane.
     width_m : float or None
-        The tracked lane width, metres.
+        The tracked lane width, metres; None until the lane's first pair, and the default width
+        (made from no pair) after a weak first pair (``tracking.sure_first_width``).
     misses : int
         Consecutive frames without an accepted measurement.
     guessed : tuple of int
@@ -147,7 +149,8 @@ class Track:
         taken).
     width_pairs : int
         How many pairs the tracked width was made from, since the lane was started or its
-        width last renewed (the renewing pair counts as one).
+        width last renewed (the renewing pair counts as one); 0 while the default width stands
+        in for one.
     width_doubt : tuple of (int, float)
         The pairs refused in a row for the change of width alone, and their mean width (m):
         at ``tracking.width_renew_frames`` of them, and more than ``width_pairs``, the width is
@@ -681,16 +684,17 @@ def _commit(track: Track, fits: tuple[Fit, Fit], ok: list[bool], conf: list[floa
     return replace(track, fits_m=(new_fits[0], new_fits[1]), misses=0, guessed=guessed)
 
 
-def _first_width(w_meas: float, conf: list[float], confirmed: bool, rules: Rules) -> tuple[float, int]:
+def _first_width(w_meas: float, conf: list[float], restarted: bool, rules: Rules) -> tuple[float, int]:
     """Give a lane without a width the one its first pair makes, and how many pairs made it.
 
-    As measured when both lines are at least ``min_start_confidence`` sure, or the pair was
-    confirmed (a weak start after a lost lane, seen in one place on ``start_frames`` frames);
+    As measured when both lines are at least ``min_start_confidence`` sure, or the pair restarts
+    a lane after a lost one (a weak start is then confirmed: seen twice in one place, where a
+    sighting may be of one sure line, or of a weak pair counted while the lost lane was held);
     else the default width, made from no pair (``tracking.sure_first_width``): one weak line
     says little, and a line inferred from the other keeps the width for as long as it is inferred.
     """
     c = rules.cfg
-    if not c.sure_first_width or confirmed or min(conf) >= c.min_start_confidence:
+    if not c.sure_first_width or restarted or min(conf) >= c.min_start_confidence:
         return w_meas, 1
     return rules.default_width_m, 0
 
@@ -772,12 +776,11 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         reasons.append("weak-pair")
         cand, _ = _confirm(track, fits, True, rules, ahead)
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
-    # Past this, a lane restarted after a lost one was sure or confirmed (seen in one place).
-    confirmed = not track.has_lane and track.was_lost
     if not weak_started and (cand := _unconfirmed(track, fits, ok, conf, rules, ahead)) is not None:
         # A weak start must be seen again in the same place before it is shown.
         reasons.append("confirming")
         return _miss(replace(track, candidate=cand), reasons, conf_t, measured, blind, rules, keep_candidate=True)
+    restarted = not track.has_lane and track.was_lost  # after a lost lane: sure, or confirmed just now
     width_m, pairs = track.width_m, track.width_pairs
     if both:
         w_meas = lane_width_m(*fits)
@@ -786,7 +789,7 @@ def step(track: Track, measured: Pair, blind: bool, rules: Rules) -> tuple[Track
         elif width_m is not None:
             width_m, pairs = width_m + c.width_smoothing * (w_meas - width_m), pairs + 1
         else:
-            width_m, pairs = _first_width(w_meas, conf, confirmed, rules)
+            width_m, pairs = _first_width(w_meas, conf, restarted, rules)
     track = replace(track, candidate=None, since_both=0 if both else track.since_both + 1, width_m=width_m,
                     width_pairs=pairs)
     if reason := check_offset(*fits, c, holding=not track.needs_blind_search(c)):
