@@ -250,11 +250,7 @@ class SelfCalibrator:
         if (new is None and look.horizon is not None and self.cfg.still_horizon and prefer is not None
                 and prefer(look.horizon)):
             new = look.horizon
-        if new is None:
-            return None
-        self.current = new
-        self.state = SetupState.of("first-frame", new)
-        return new
+        return None if new is None else self._take_early(new)
 
     def look_again(self, frame: np.ndarray) -> BirdsEye | None:
         """Look at an early frame alone, as :meth:`first_look` looks at the first, while the default is in use.
@@ -305,6 +301,14 @@ class SelfCalibrator:
         limit = self.cfg.first_look_agree_px * self.current.frame_size[1] / 720
         if not (abs(h1 - h0) <= limit and abs(m1 / m0 - 1) <= FIRST_LOOK_AGREE_HEIGHT):
             return None
+        return self._take_early(new)
+
+    def _take_early(self, new: BirdsEye) -> BirdsEye:
+        """Put an early frame's own set-up in use until a sure estimate (``state.source`` ``first-frame``).
+
+        What an unsure estimate left in the state (its frames and quality) is kept; before the
+        first frame is offered there is none.
+        """
         self.current = new
         self.state = SetupState.of("first-frame", new, frames=self.state.frames, updates=self.state.updates,
                                    refused=self.state.refused, quality=self.state.quality)
